@@ -1,0 +1,1 @@
+"""Hardware behind small protocols (Arm, Gripper, Camera, Clock), the safety layer and cells."""

@@ -1,0 +1,80 @@
+"""The small protocols every backend implements: Arm, Gripper, Camera and Clock.
+
+Skills and the runner talk only to these. Poses are UR-style 6-vectors [x, y, z, rx, ry, rz]
+(metres, rotation vector, base frame); widths are metres between the fingertips. Commands are
+asynchronous: they start a motion and return, and the caller polls state every tick.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+
+class DriverFault(RuntimeError):
+    """A device reported a fault or stopped answering; the tree must fail safe."""
+
+
+@runtime_checkable
+class Clock(Protocol):
+    def now(self) -> float:
+        """Seconds on the cell's clock (simulated or monotonic)."""
+
+
+@runtime_checkable
+class Arm(Protocol):
+    def pose(self) -> np.ndarray:
+        """Actual TCP pose [x, y, z, rx, ry, rz]."""
+
+    def tcp_speed(self) -> np.ndarray:
+        """Actual TCP twist [vx, vy, vz, wx, wy, wz] in m/s and rad/s."""
+
+    def tcp_wrench(self) -> np.ndarray:
+        """Measured TCP force and torque (N, N m); zeros where the arm has no sensor."""
+
+    def state_stamp(self) -> float:
+        """Cell-clock time of the newest state received from the arm (for stale-data checks)."""
+
+    def move_linear(self, pose: np.ndarray, speed: float) -> None:
+        """Start a linear move to `pose` at `speed` m/s; returns at once."""
+
+    def speed_linear(self, twist: np.ndarray) -> None:
+        """Command a TCP twist, held until the next command or `stop`."""
+
+    def is_moving(self) -> bool:
+        """True while a commanded move or twist is still in progress."""
+
+    def stop(self) -> None:
+        """Decelerate to standstill and drop any pending command."""
+
+    def fault(self) -> str | None:
+        """Text of the active fault (protective stop, lost link, limit), or None."""
+
+
+@runtime_checkable
+class Gripper(Protocol):
+    max_width: float
+
+    def width(self) -> float:
+        """Current opening between the fingertips in metres."""
+
+    def move(self, width: float, speed: float = 0.05, force: float = 20.0) -> None:
+        """Start moving the fingers to `width` (m) at `speed` (m/s) with grip `force` (N)."""
+
+    def is_moving(self) -> bool: ...
+
+    def object_detected(self) -> bool:
+        """True when the fingers stopped on an object before reaching the requested width."""
+
+    def stop(self) -> None: ...
+
+    def fault(self) -> str | None: ...
+
+
+@runtime_checkable
+class Camera(Protocol):
+    def read(self) -> tuple[np.ndarray, float] | None:
+        """The next BGR frame and its cell-clock stamp, or None when no frame is available."""
+
+    def close(self) -> None: ...

@@ -1,0 +1,99 @@
+"""Kinematic arm: commanded linear moves and twists integrated once per tick, with limits."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from drivers.protocols import Clock
+
+
+class KinematicArm:
+    """A TCP that moves exactly as commanded, within its own speed limits (no dynamics)."""
+
+    def __init__(
+        self,
+        clock: Clock,
+        pose: np.ndarray,
+        max_speed: float = 1.0,
+        max_angular_speed: float = 1.5,
+    ):
+        self.clock = clock
+        self._pose = np.array(pose, dtype=float)
+        self.max_speed = max_speed
+        self.max_angular_speed = max_angular_speed
+        self._twist = np.zeros(6)  # commanded twist (speed mode)
+        self._target: np.ndarray | None = None  # commanded pose (move mode)
+        self._target_speed = 0.0
+        self._velocity = np.zeros(6)  # what the TCP actually did last step
+        self.external_wrench = np.zeros(6)  # set by the scene from contacts
+        self.fault_text: str | None = None
+
+    # Arm protocol -----------------------------------------------------------------------
+    def pose(self) -> np.ndarray:
+        return self._pose.copy()
+
+    def tcp_speed(self) -> np.ndarray:
+        return self._velocity.copy()
+
+    def tcp_wrench(self) -> np.ndarray:
+        return self.external_wrench.copy()
+
+    def state_stamp(self) -> float:
+        return self.clock.now()
+
+    def move_linear(self, pose: np.ndarray, speed: float) -> None:
+        self._target = np.array(pose, dtype=float)
+        self._target_speed = min(float(speed), self.max_speed)
+        self._twist[:] = 0.0
+
+    def speed_linear(self, twist: np.ndarray) -> None:
+        self._target = None
+        self._twist = np.array(twist, dtype=float)
+
+    def is_moving(self) -> bool:
+        return self._target is not None or bool(np.any(self._twist))
+
+    def stop(self) -> None:
+        self._target = None
+        self._twist[:] = 0.0
+
+    def fault(self) -> str | None:
+        return self.fault_text
+
+    # Simulation -------------------------------------------------------------------------
+    def step(self, dt: float) -> None:
+        before = self._pose.copy()
+        if self._target is not None:
+            self._step_towards_target(dt)
+        elif np.any(self._twist):
+            v = self._twist[:3]
+            n = np.linalg.norm(v)
+            if n > self.max_speed:
+                v = v * (self.max_speed / n)
+            self._pose[:3] += v * dt
+            w = self._twist[3:]
+            if np.any(w):
+                rot = Rotation.from_rotvec(w * dt) * Rotation.from_rotvec(self._pose[3:])
+                self._pose[3:] = rot.as_rotvec()
+        self._velocity[:3] = (self._pose[:3] - before[:3]) / dt
+
+    def _step_towards_target(self, dt: float) -> None:
+        target = self._target
+        delta = target[:3] - self._pose[:3]
+        dist = float(np.linalg.norm(delta))
+        reach = self._target_speed * dt
+        self._pose[:3] = target[:3] if dist <= reach else self._pose[:3] + delta * (reach / dist)
+        arrived_rot = True
+        if not np.allclose(target[3:], self._pose[3:]):
+            cur = Rotation.from_rotvec(self._pose[3:])
+            err = (Rotation.from_rotvec(target[3:]) * cur.inv()).as_rotvec()
+            angle = float(np.linalg.norm(err))
+            max_step = self.max_angular_speed * dt
+            if angle > max_step:
+                err *= max_step / angle
+                arrived_rot = False
+            self._pose[3:] = (Rotation.from_rotvec(err) * cur).as_rotvec()
+        if dist <= reach and arrived_rot:
+            self._pose[3:] = target[3:]
+            self._target = None

@@ -1,0 +1,258 @@
+"""The architectural-assembly scene: elements lying at a pick area, bendable plates to prop,
+the ground, and what each FingerVision fingertip feels and sees.
+
+Frames: base frame z up, ground at z = 0. The gripper closes along the tool y axis; each
+finger's image x runs along the tool x axis (mirrored on the left finger), image y along the
+tool z axis. A held element carries the plate load R(a) through the grip (the gel is part of
+the series compliance k), so the fingers feel it as shear.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from drivers.sim.arm import KinematicArm
+from drivers.sim.fingervision_model import FingerContact
+from drivers.sim.gripper import SimGripper
+from drivers.sim.plate import BeamPlate
+from perception.state import ObjectInfo
+
+GRAVITY = 9.81
+
+
+@dataclass
+class Element:
+    """A box-shaped vertical element; its length runs along its own x axis."""
+
+    id: str
+    length: float
+    width: float  # across the fingers
+    depth: float
+    mass: float
+    pose: np.ndarray  # centre pose [x, y, z, rx, ry, rz]
+    state: str = "lying"  # lying | held | standing | dropped
+    grasp: np.ndarray | None = None  # element pose in the tool frame while held (4x4)
+
+    def rotation(self) -> np.ndarray:
+        return Rotation.from_rotvec(self.pose[3:]).as_matrix()
+
+    def ends(self) -> tuple[np.ndarray, np.ndarray]:
+        """(bottom, top) end points of the element axis, by height."""
+        axis = self.rotation()[:, 0] * (self.length / 2.0)
+        a, b = self.pose[:3] - axis, self.pose[:3] + axis
+        return (a, b) if a[2] <= b[2] else (b, a)
+
+    def is_upright(self, tol: float = 0.1) -> bool:
+        return abs(self.rotation()[2, 0]) > 1.0 - tol
+
+
+@dataclass
+class Plate:
+    """A plate strip spanning along +x from `origin` (left support) at height `origin[2]`."""
+
+    id: str
+    origin: np.ndarray  # left support [x, y, z_soffit]
+    width: float  # extent across (y)
+    beam: BeamPlate
+
+    def position_along(self, p: np.ndarray) -> float | None:
+        """Distance a from the left support if p lies under the plate footprint, else None."""
+        a = p[0] - self.origin[0]
+        if 0.0 <= a <= self.beam.span and abs(p[1] - self.origin[1]) <= self.width / 2.0:
+            return float(a)
+        return None
+
+
+def _homogeneous(pose: np.ndarray) -> np.ndarray:
+    t = np.eye(4)
+    t[:3, :3] = Rotation.from_rotvec(pose[3:]).as_matrix()
+    t[:3, 3] = pose[:3]
+    return t
+
+
+def _pose(t: np.ndarray) -> np.ndarray:
+    return np.concatenate([t[:3, 3], Rotation.from_matrix(t[:3, :3]).as_rotvec()])
+
+
+@dataclass
+class SceneConfig:
+    """Physical constants of the simulated assembly cell (not known to the design model)."""
+
+    ground_stiffness: float = 20000.0  # N/m, element foot on the ground
+    friction: float = 0.8  # gel-element friction coefficient
+    view_half: float = 0.015  # m, half the fingertip camera window along the tool x axis
+    finger_reach: float = 0.03  # m, fingertip length along the tool z axis
+    force_noise: float = 0.02  # std of load noise, share of the plate's true maximum
+    seed: int = 0
+
+
+@dataclass
+class AssemblyScene:
+    arm: KinematicArm
+    gripper: SimGripper
+    elements: dict[str, Element]
+    plates: dict[str, Plate]
+    config: SceneConfig = field(default_factory=SceneConfig)
+
+    def __post_init__(self):
+        self._rng = np.random.default_rng(self.config.seed)
+        self._loads: dict[str, float] = {}  # element id -> true load it carries now (N)
+        self._slip = 0.0
+        self._noise_scale: dict[str, float] = {}  # plate id -> load noise std (N)
+
+    # ----------------------------------------------------------------------------------
+    def held(self) -> Element | None:
+        for e in self.elements.values():
+            if e.state == "held":
+                return e
+        return None
+
+    def _between_fingers(self) -> Element | None:
+        """The element whose cross-section is between the open fingertips, if any."""
+        tool = _homogeneous(self.arm.pose())
+        for e in self.elements.values():
+            if e.state == "held":
+                return e
+            local = np.linalg.inv(_homogeneous(e.pose)) @ tool[:, 3]
+            tool_y_in_e = e.rotation().T @ tool[:3, 1]
+            across = abs(tool_y_in_e[1]) > 0.9  # fingers close across the element width
+            if (
+                across
+                and abs(local[0]) <= e.length / 2.0
+                and abs(local[1]) <= self.gripper.width() / 2.0
+                and abs(local[2]) <= e.depth / 2.0 + self.config.finger_reach
+            ):
+                return e
+        return None
+
+    def step(self, dt: float) -> None:
+        self.arm.step(dt)
+        e = self._between_fingers()
+        self.gripper.object_width = e.width if e is not None else None
+        self.gripper.step(dt)
+        tool = _homogeneous(self.arm.pose())
+        if e is not None and e.state != "held" and self.gripper.squeeze_force() > 0.0:
+            e.state = "held"
+            e.grasp = np.linalg.inv(tool) @ _homogeneous(e.pose)
+        held = self.held()
+        if held is None:
+            self.arm.external_wrench = np.zeros(6)
+            self._slip = 0.0
+            return
+        if self.gripper.squeeze_force() <= 0.0:
+            self._release(held)
+            return
+        held.pose = _pose(tool @ held.grasp)
+        self._update_slip(held, dt, tool)
+
+    def _release(self, e: Element) -> None:
+        bottom, _ = e.ends()
+        supported = e.is_upright() and bottom[2] < 0.005
+        e.state = "standing" if supported else "dropped"
+        if supported:
+            e.pose[2] -= bottom[2]  # foot on the ground
+        else:
+            e.pose = np.array([e.pose[0], e.pose[1], e.depth / 2.0, 0.0, 0.0, 0.0])
+        e.grasp = None
+        self.arm.external_wrench = np.zeros(6)
+        self._slip = 0.3  # the object moves in the fingers as it goes
+
+    # ---- loads ---------------------------------------------------------------------------
+    def external_force(self, e: Element) -> np.ndarray:
+        """Net force (base frame, N) the ground, the plates and gravity put on a held element."""
+        bottom, top = e.ends()
+        f = np.array([0.0, 0.0, -e.mass * GRAVITY])
+        if bottom[2] < 0.0:
+            f[2] += self.config.ground_stiffness * -bottom[2]
+        load = self.plate_load(e, top)
+        if load:
+            f[2] -= load
+        return f
+
+    def plate_load(self, e: Element, top: np.ndarray | None = None) -> float:
+        """True load (N) the plate above puts on element `e`, noise-free."""
+        if not e.is_upright():
+            return 0.0
+        top = e.ends()[1] if top is None else top
+        plate = self.plate_above(top)
+        if plate is None:
+            return 0.0
+        a = plate.position_along(top)
+        return float(plate.beam.carried_force(a, plate.origin[2] - top[2]))
+
+    def plate_above(self, p: np.ndarray) -> Plate | None:
+        for plate in self.plates.values():
+            if plate.position_along(p) is not None:
+                return plate
+        return None
+
+    def _load_noise(self, plate: Plate, top: np.ndarray) -> float:
+        """Std of the load noise under `plate`: `force_noise` times its true maximum load."""
+        if plate.id not in self._noise_scale:
+            peak = plate.beam.max_load(plate.origin[2] - top[2])[1]
+            self._noise_scale[plate.id] = self.config.force_noise * peak
+        return self._noise_scale[plate.id]
+
+    def _update_slip(self, e: Element, dt: float, tool: np.ndarray) -> None:
+        """Let the element slide in the grasp when friction cannot hold the load."""
+        f = self.external_force(e)
+        axis = e.rotation()[:, 0]
+        along = float(f @ axis)
+        grip = 2.0 * self.config.friction * self.gripper.squeeze_force()
+        excess = abs(along) - grip
+        if excess <= 0.0:
+            self._slip = 0.0
+            return
+        shift = np.sign(along) * min(0.05, excess / max(grip, 1e-6) * 0.02) * dt
+        e.pose[:3] += axis * shift
+        e.grasp = np.linalg.inv(tool) @ _homogeneous(e.pose)
+        self._slip = min(1.0, 50.0 * abs(shift) / dt * 0.1)
+        if abs(e.grasp[0, 3]) + abs(e.grasp[1, 3]) + abs(e.grasp[2, 3]) > e.length / 2.0:
+            self._release(e)
+
+    # ---- sensing --------------------------------------------------------------------------
+    def _view(self, e: Element, tool: np.ndarray, mirror: float) -> ObjectInfo:
+        """What a fingertip camera sees of element `e` between the fingers."""
+        local = np.linalg.inv(_homogeneous(e.pose)) @ tool[:, 3]
+        r = self.config.view_half
+        lo, hi = max(local[0] - r, -e.length / 2.0), min(local[0] + r, e.length / 2.0)
+        overlap = max(0.0, hi - lo)
+        if overlap <= 0.0:
+            return ObjectInfo()
+        centre = ((lo + hi) / 2.0 - local[0]) / (2.0 * r)  # -0.5 .. 0.5 of the image width
+        area = 0.35 * overlap / (2.0 * r)
+        return ObjectInfo(True, area, np.array([-mirror * centre, 0.0]), 0.0)
+
+    def contacts(self) -> dict[str, FingerContact]:
+        """Loads and views on the two fingertips for the current state."""
+        tool = _homogeneous(self.arm.pose())
+        e = self._between_fingers()
+        if e is None:
+            self.arm.external_wrench = np.zeros(6)
+            return {"left": FingerContact(), "right": FingerContact()}
+        normal = self.gripper.squeeze_force()
+        force = np.zeros(3)
+        if e.state == "held":
+            force = self.external_force(e)
+            top = e.ends()[1]
+            plate = self.plate_above(top) if e.is_upright() else None
+            if plate is not None and self.config.force_noise:
+                force[2] -= self._rng.normal(0.0, self._load_noise(plate, top))
+            self.arm.external_wrench = np.concatenate([force, np.zeros(3)])
+        f_tool = tool[:3, :3].T @ force  # element pushes the fingers with the external load
+        out = {}
+        for finger, mirror in (("left", -1.0), ("right", 1.0)):
+            shear = 0.5 * np.array([mirror * f_tool[0], f_tool[2]])
+            out[finger] = FingerContact(normal, shear, 0.0, None, self._view(e, tool, mirror),
+                                        self._slip)
+        return out
+
+    def truth(self) -> dict:
+        """Ground truth for run summaries: element poses, states and true loads."""
+        return {
+            e.id: {"pose": e.pose.tolist(), "state": e.state, "load": self.plate_load(e)}
+            for e in self.elements.values()
+        }

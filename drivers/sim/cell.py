@@ -1,0 +1,94 @@
+"""Build the simulated cell from a `kind: sim` cell file and the scene a tree needs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from drivers.cell import Cell, CellFileError
+from drivers.clock import SimClock
+from drivers.safety import SafeArm, SafetyLimits
+from drivers.sim.arm import KinematicArm
+from drivers.sim.assembly_scene import AssemblyScene, Element, Plate, SceneConfig
+from drivers.sim.fingervision_model import SensorModel
+from drivers.sim.gripper import SimGripper
+from drivers.sim.plate import BeamPlate
+from perception.state import FINGERS
+
+
+def _section(path: Path, data: dict, key: str, allowed: set[str]) -> dict:
+    section = data.get(key) or {}
+    if not isinstance(section, dict):
+        raise CellFileError(path, key, "must be a mapping")
+    unknown = set(section) - allowed
+    if unknown:
+        raise CellFileError(path, f"{key}.{sorted(unknown)[0]}",
+                            f"unknown field; known: {', '.join(sorted(allowed))}")
+    return section
+
+
+def build_assembly_scene(arm, gripper, args: dict, world: dict, seed: int) -> AssemblyScene:
+    """Elements at their pick poses (with seeded placement error) and the plates to prop."""
+    rng = np.random.default_rng(seed + 1)
+    elements = {}
+    for spec in args.get("elements", []):
+        length, width, depth = spec["size"]
+        pose = np.array(spec["pick_pose"], dtype=float)
+        pose[:2] += rng.uniform(-0.008, 0.008, 2)  # where the element really lies
+        true_length = length + rng.uniform(-0.003, 0.003)
+        elements[spec["id"]] = Element(spec["id"], true_length, width, depth,
+                                       spec.get("mass", 0.4), pose)
+    plates = {}
+    for spec in args.get("plates", []):
+        beam = BeamPlate(span=spec["span"], **spec.get("sim_load", {}))
+        plates[spec["id"]] = Plate(spec["id"], np.array(spec["origin"], float),
+                                   spec.get("width", 0.3), beam)
+    config = SceneConfig(seed=seed, **world)
+    return AssemblyScene(arm, gripper, elements, plates, config)
+
+
+SCENES: dict[str, Callable[..., object]] = {"assembly": build_assembly_scene}
+
+
+def register_scene(name: str, builder: Callable[..., object]) -> None:
+    """Make a simulated scene available to trees (`cell: {scene: NAME}`)."""
+    SCENES[name] = builder
+
+
+def build_sim_cell(path: Path, data: dict, tick_hz: float, scene: str, scene_args: dict,
+                   seed: int = 0, perception: str | None = None) -> Cell:
+    allowed = {"kind", "name", "home", "safety", "gripper", "sensor", "world", "perception"}
+    unknown = set(data) - allowed
+    if unknown:
+        raise CellFileError(path, sorted(unknown)[0], f"unknown field; known: {', '.join(sorted(allowed))}")
+    try:
+        limits = SafetyLimits.from_dict(data.get("safety") or {})
+    except (TypeError, ValueError) as exc:
+        raise CellFileError(path, "safety", str(exc)) from None
+    clock = SimClock(1.0 / tick_hz)
+    home = np.array(data.get("home", [0.0, 0.0, 0.5, np.pi, 0.0, 0.0]), dtype=float)
+    arm = KinematicArm(clock, home)
+    gripper = SimGripper(**_section(path, data, "gripper", {"max_width", "gel_stiffness", "max_speed"}))
+    sensor_cfg = _section(path, data, "sensor", set(SensorModel.__dataclass_fields__) - {"finger", "seed"})
+    world_cfg = _section(path, data, "world", set(SceneConfig.__dataclass_fields__) - {"seed"})
+    if scene not in SCENES:
+        raise CellFileError(path, "scene", f"no simulated scene {scene!r}; known: {', '.join(sorted(SCENES))}")
+    world = SCENES[scene](arm, gripper, scene_args, world_cfg, seed)
+    sensors = {f: SensorModel(f, seed=seed * 2 + i, **sensor_cfg) for i, f in enumerate(FINGERS)}
+
+    def sense():
+        contacts = world.contacts()
+        now = clock.now()
+        return {f: sensors[f].state(contacts[f], now) for f in FINGERS}
+
+    mode = perception or data.get("perception", "signals")
+    if mode == "pixels":
+        from drivers.sim.camera import pixel_level_sense  # rendered frames -> real pipeline
+
+        sense = pixel_level_sense(world, sensors, clock, seed)
+    elif mode != "signals":
+        raise CellFileError(path, "perception", f"unknown mode {mode!r}; expected signals or pixels")
+    safe = SafeArm(arm, limits, clock)
+    return Cell(data.get("name", "sim"), safe, gripper, clock, sense, world=world)

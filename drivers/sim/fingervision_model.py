@@ -1,0 +1,88 @@
+"""FingerVision contact model: contact loads on a fingertip -> marker displacement field ->
+`TactileState` (through the same wrench estimator the real pipeline uses).
+
+Shear moves the markers inside the contact patch along the shear; normal load spreads them
+radially and grows their apparent size; torque about the finger normal turns them around the
+patch centre. Seeded Gaussian noise is added to marker positions and sizes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from perception.state import MarkerField, ObjectInfo, TactileState
+from perception.wrench import wrench
+
+
+@dataclass
+class FingerContact:
+    """Loads and what the camera sees on one fingertip, in the finger's image axes."""
+
+    normal: float = 0.0  # N, pressing into the gel
+    shear: np.ndarray = field(default_factory=lambda: np.zeros(2))  # N, along image x and y
+    torque: float = 0.0  # N m about the finger normal
+    centre: np.ndarray | None = None  # px, contact patch centre (image centre if None)
+    obj: ObjectInfo = field(default_factory=ObjectInfo)
+    slip: float = 0.0  # moving object pixels, share of the image
+
+
+def radial_marker_layout(size=(320, 240), pitch=34.0, radius=105.0) -> np.ndarray:
+    """(N, 2) marker origins: a hexagonal grid clipped to the round sensor window."""
+    w, h = size
+    pts = []
+    rows = int(radius // (pitch * 0.866)) + 1
+    for r in range(-rows, rows + 1):
+        y = r * pitch * 0.866
+        off = 0.5 * pitch if r % 2 else 0.0
+        for c in range(-int(radius // pitch) - 1, int(radius // pitch) + 2):
+            x = c * pitch + off
+            if x * x + y * y <= radius * radius:
+                pts.append((w / 2 + x, h / 2 + y))
+    return np.array(pts, dtype=float)
+
+
+@dataclass
+class SensorModel:
+    """Gains from loads to marker motion, and the noise, of one simulated sensor."""
+
+    finger: str
+    image_size: tuple[int, int] = (320, 240)
+    shear_gain: float = 0.25  # px per N of shear at the patch centre
+    normal_gain: float = 0.06  # px of radial spread per N of normal load
+    size_gain: float = 0.03  # px of diameter growth per N of normal load
+    torque_gain: float = 12.0  # px of tangential motion per N m at the patch rim
+    patch_sigma: float = 90.0  # px, width of the contact patch weighting
+    marker_size: float = 9.0  # px diameter at rest
+    noise_px: float = 0.05  # px, std of marker position noise
+    seed: int = 0
+    normal_mode: str = "xy_norm"
+
+    def __post_init__(self):
+        self.origin = radial_marker_layout(self.image_size)
+        self._origin_size = np.full(len(self.origin), self.marker_size)
+        self._valid = np.ones(len(self.origin), bool)
+        self._rng = np.random.default_rng(self.seed)
+        self._centre = np.array(self.image_size, float) / 2.0
+
+    def state(self, contact: FingerContact, stamp: float) -> TactileState:
+        """Render one `TactileState` from the loads on this fingertip."""
+        centre = self._centre if contact.centre is None else contact.centre
+        rel = self.origin - centre
+        weight = np.exp(-(rel**2).sum(axis=1) / (2.0 * self.patch_sigma**2))[:, None]
+        disp = weight * (self.shear_gain * np.asarray(contact.shear, float))
+        if contact.normal:
+            disp += weight * (self.normal_gain * contact.normal) * rel / self.patch_sigma
+        if contact.torque:
+            perp = np.column_stack([-rel[:, 1], rel[:, 0]]) / self.patch_sigma
+            disp += weight * (self.torque_gain * contact.torque) * perp
+        n = len(self.origin)
+        noise = self._rng.normal(0.0, self.noise_px, (n, 3)) if self.noise_px else np.zeros((n, 3))
+        position = self.origin + disp + noise[:, :2]
+        size = self._origin_size + self.size_gain * max(contact.normal, 0.0) * weight[:, 0]
+        size = size + 0.5 * noise[:, 2]
+        markers = MarkerField(self.origin, position, self._origin_size, size, self._valid,
+                              self.image_size)
+        force, torque = wrench(markers, self.finger, self.normal_mode)
+        return TactileState(self.finger, stamp, markers, force, torque, contact.obj, contact.slip)

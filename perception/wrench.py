@@ -1,0 +1,89 @@
+"""Force and torque from the marker field (FingerVision `fv_filter1` conventions).
+
+Per marker, with displacement (dx, dy) and normal component fz:
+  right finger: f = [+dx, -fz, -dy], lever p = [+rx, -ry]
+  left finger:  f = [-dx, +fz, -dy], lever p = [-rx, -ry]
+where r is the marker origin relative to the image centre divided by (W + H) / 2, and the
+torque is cross([p0, 0, p1], f). Index 1 of the force is the finger normal; units are pixels.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+
+from perception.state import MarkerField
+
+NormalMode = Literal["xy_norm", "marker_size"]
+Averaging = Literal["mean", "median", "robust"]
+
+_SIGNS = {
+    # finger: (force sign per [dx, fz, dy] column, lever sign per [rx, ry])
+    "right": (np.array([1.0, -1.0, -1.0]), np.array([1.0, -1.0])),
+    "left": (np.array([-1.0, 1.0, -1.0]), np.array([-1.0, -1.0])),
+}
+
+
+def _signs(finger: str):
+    try:
+        return _SIGNS[finger]
+    except KeyError:
+        raise ValueError(f"unknown finger {finger!r}; expected 'left' or 'right'") from None
+
+
+def normal_component(markers: MarkerField, mode: NormalMode = "xy_norm") -> np.ndarray:
+    """(N,) normal-force proxy per marker: displacement norm (2018) or diameter growth (later)."""
+    if mode == "xy_norm":
+        return np.hypot(*markers.displacement.T) if len(markers) else np.zeros(0)
+    if mode == "marker_size":
+        return np.maximum(0.0, markers.size_change)
+    raise ValueError(f"unknown normal_mode {mode!r}; expected 'xy_norm' or 'marker_size'")
+
+
+def marker_forces(markers: MarkerField, finger: str, mode: NormalMode = "xy_norm") -> np.ndarray:
+    """(N, 3) force vector per marker in the finger's convention."""
+    fsign, _ = _signs(finger)
+    d = markers.displacement
+    raw = np.column_stack([d[:, 0], normal_component(markers, mode), d[:, 1]])
+    return raw * fsign
+
+
+def marker_levers(markers: MarkerField, finger: str) -> np.ndarray:
+    """(N, 2) normalised lever arm of each marker origin about the image centre."""
+    _, psign = _signs(finger)
+    w, h = markers.image_size
+    div = (w + h) / 2.0
+    r = (markers.origin - np.array([w / 2.0, h / 2.0])) / div
+    return r * psign
+
+
+def _average(values: np.ndarray, how: Averaging) -> np.ndarray:
+    if how == "mean":
+        return values.mean(axis=0)
+    if how == "median":
+        return np.median(values, axis=0)
+    if how == "robust":
+        # Mean of the samples inside the inter-quartile fence: rejects a few lost markers.
+        q1, q3 = np.percentile(values, [25, 75], axis=0)
+        fence = 1.5 * (q3 - q1)
+        inside = (values >= q1 - fence) & (values <= q3 + fence)
+        return np.where(inside, values, 0.0).sum(axis=0) / np.maximum(inside.sum(axis=0), 1)
+    raise ValueError(f"unknown averaging {how!r}; expected 'mean', 'median' or 'robust'")
+
+
+def wrench(
+    markers: MarkerField,
+    finger: str,
+    mode: NormalMode = "xy_norm",
+    averaging: Averaging = "mean",
+) -> tuple[np.ndarray, np.ndarray]:
+    """Averaged (force, torque) over the valid markers; zeros when none is valid."""
+    valid = markers.valid if len(markers.valid) == len(markers) else np.ones(len(markers), bool)
+    if not valid.any():
+        return np.zeros(3), np.zeros(3)
+    f = marker_forces(markers, finger, mode)[valid]
+    p = marker_levers(markers, finger)[valid]
+    lever = np.column_stack([p[:, 0], np.zeros(len(p)), p[:, 1]])
+    tau = np.cross(lever, f)
+    return _average(f, averaging), _average(tau, averaging)
