@@ -51,6 +51,8 @@ class ObjectInfo:
     area: float = 0.0  # fraction of the image covered by the object mask, 0..1
     centroid: np.ndarray = field(default_factory=lambda: _empty((2,)))  # normalised image coords
     orientation: float = 0.0  # rad, principal axis of the object mask
+    cells: np.ndarray = field(default_factory=lambda: _empty((3, 3)))  # object fill per 3x3 cell, 0..1
+    motion_cells: np.ndarray = field(default_factory=lambda: _empty((3, 3)))  # moving object share
 
 
 @dataclass(frozen=True)

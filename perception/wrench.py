@@ -4,7 +4,8 @@ Per marker, with displacement (dx, dy) and normal component fz:
   right finger: f = [+dx, -fz, -dy], lever p = [+rx, -ry]
   left finger:  f = [-dx, +fz, -dy], lever p = [-rx, -ry]
 where r is the marker origin relative to the image centre divided by (W + H) / 2, and the
-torque is cross([p0, 0, p1], f). Index 1 of the force is the finger normal; units are pixels.
+torque is cross([p0, 0, p1], f). Index 1 of the force is the finger normal; units are pixels
+unless a calibration gives scale factors. Only valid markers enter the average.
 """
 
 from __future__ import annotations
@@ -72,18 +73,30 @@ def _average(values: np.ndarray, how: Averaging) -> np.ndarray:
     raise ValueError(f"unknown averaging {how!r}; expected 'mean', 'median' or 'robust'")
 
 
+def _valid(markers: MarkerField) -> np.ndarray:
+    """The valid mask; an empty mask means every marker is valid (signal-level states)."""
+    if len(markers.valid) == 0:
+        return np.ones(len(markers), bool)
+    if len(markers.valid) != len(markers):
+        raise ValueError(f"marker field has {len(markers)} markers but {len(markers.valid)} valid flags")
+    return np.asarray(markers.valid, bool)
+
+
 def wrench(
     markers: MarkerField,
     finger: str,
     mode: NormalMode = "xy_norm",
     averaging: Averaging = "mean",
+    force_scale: np.ndarray | float = 1.0,
+    torque_scale: np.ndarray | float = 1.0,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Averaged (force, torque) over the valid markers; zeros when none is valid."""
-    valid = markers.valid if len(markers.valid) == len(markers) else np.ones(len(markers), bool)
+    """Averaged (force, torque) over the valid markers, times the calibration scales (1 = pixels);
+    zeros when no marker is valid."""
+    valid = _valid(markers)
     if not valid.any():
         return np.zeros(3), np.zeros(3)
     f = marker_forces(markers, finger, mode)[valid]
     p = marker_levers(markers, finger)[valid]
     lever = np.column_stack([p[:, 0], np.zeros(len(p)), p[:, 1]])
     tau = np.cross(lever, f)
-    return _average(f, averaging), _average(tau, averaging)
+    return _average(f, averaging) * force_scale, _average(tau, averaging) * torque_scale

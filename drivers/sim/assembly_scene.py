@@ -214,17 +214,23 @@ class AssemblyScene:
             self._release(e)
 
     # ---- sensing --------------------------------------------------------------------------
-    def _view(self, e: Element, tool: np.ndarray, mirror: float) -> ObjectInfo:
-        """What a fingertip camera sees of element `e` between the fingers."""
+    def _view(self, e: Element, tool: np.ndarray, side: float) -> ObjectInfo:
+        """What the fingertip camera on tool-y side `side` (+1 right, -1 left) sees of `e`.
+
+        The visible share of the window along the element gives the area and centroid; the
+        gap between the element face and the pad scales the area (nearer looks bigger).
+        """
         local = np.linalg.inv(_homogeneous(e.pose)) @ tool[:, 3]
         r = self.config.view_half
         lo, hi = max(local[0] - r, -e.length / 2.0), min(local[0] + r, e.length / 2.0)
         overlap = max(0.0, hi - lo)
         if overlap <= 0.0:
             return ObjectInfo()
+        offset = (np.linalg.inv(tool) @ np.append(e.pose[:3], 1.0))[1]  # element centre, tool y
+        gap = max(0.0, self.gripper.width() / 2.0 - side * offset - e.width / 2.0)
+        area = 0.35 * overlap / (2.0 * r) / (1.0 + gap / 0.01)
         centre = ((lo + hi) / 2.0 - local[0]) / (2.0 * r)  # -0.5 .. 0.5 of the image width
-        area = 0.35 * overlap / (2.0 * r)
-        return ObjectInfo(True, area, np.array([-mirror * centre, 0.0]), 0.0)
+        return ObjectInfo(True, area, np.array([side * centre, 0.0]), 0.0)
 
     def contacts(self) -> dict[str, FingerContact]:
         """Loads and views on the two fingertips for the current state."""
@@ -244,9 +250,9 @@ class AssemblyScene:
             self.arm.external_wrench = np.concatenate([force, np.zeros(3)])
         f_tool = tool[:3, :3].T @ force  # element pushes the fingers with the external load
         out = {}
-        for finger, mirror in (("left", -1.0), ("right", 1.0)):
-            shear = 0.5 * np.array([mirror * f_tool[0], f_tool[2]])
-            out[finger] = FingerContact(normal, shear, 0.0, None, self._view(e, tool, mirror),
+        for finger, side in (("left", -1.0), ("right", 1.0)):
+            shear = 0.5 * np.array([side * f_tool[0], f_tool[2]])
+            out[finger] = FingerContact(normal, shear, 0.0, None, self._view(e, tool, side),
                                         self._slip)
         return out
 

@@ -1,0 +1,193 @@
+"""`fvtree`: run, validate, show and document behaviour trees of tactile skills."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+from pathlib import Path
+
+EXIT_FAILURE = 1  # the tree ran and failed, or a check failed
+EXIT_USAGE = 2  # bad input: tree, design or cell file
+
+BENCHES = {
+    "ticks": "assembly.bench_ticks",
+    "perception": "perception.benchmark",
+    "drivers": "drivers.benchmark",
+    "skills": "assembly.bench_skills",
+}
+
+
+def _load(path: str):
+    from assembly.loader import load_tree
+
+    return load_tree(path)
+
+
+def cmd_validate(args) -> int:
+    from assembly.errors import TreeErrors
+
+    bad = 0
+    for path in args.trees:
+        try:
+            doc = _load(path)
+        except TreeErrors as exc:
+            bad += 1
+            for err in exc.errors:
+                print(err, file=sys.stderr)
+            continue
+        print(f"{path}: ok ({doc.name}, {sum(1 for _ in _walk(doc.root))} nodes)")
+    return EXIT_USAGE if bad else 0
+
+
+def _walk(spec):
+    yield spec
+    for child in spec.children:
+        yield from _walk(child)
+
+
+def cmd_run(args) -> int:
+    from assembly.session import run_tree
+
+    summary = run_tree(
+        args.tree, cell=args.cell, seed=args.seed, realtime=args.speed == "realtime",
+        perception=args.perception, runs_dir=Path(args.runs_dir), resume=args.resume,
+        estop_at=args.estop_at, max_time=args.max_time, plots=not args.no_plots,
+    )
+    return 0 if summary["status"] == "SUCCESS" else EXIT_FAILURE
+
+
+def cmd_show(args) -> int:
+    from assembly.show import render
+
+    print(render(_load(args.tree), Path(args.run) if args.run else None))
+    return 0
+
+
+def cmd_skills(args) -> int:
+    from assembly.schema import describe_skills, skills_table
+
+    if args.json:
+        print(json.dumps(describe_skills(), indent=1))
+    else:
+        print(skills_table())
+    return 0
+
+
+def cmd_schema(args) -> int:
+    from assembly.schema import tree_schema
+
+    text = json.dumps(tree_schema(), indent=1)
+    if args.out:
+        Path(args.out).write_text(text + "\n")
+        print(f"wrote {args.out}")
+    else:
+        print(text)
+    return 0
+
+
+def cmd_bench(args) -> int:
+    module = importlib.import_module(BENCHES[args.name])
+    out = Path(args.out or f"bench/{args.name}")
+    out.mkdir(parents=True, exist_ok=True)
+    for path in module.run(out, quick=args.quick):
+        print(f"wrote {path}")
+    return 0
+
+
+def cmd_check(args) -> int:
+    from drivers.check import check_cell
+
+    results = check_cell(args.cell)
+    for device, ok, detail in results:
+        print(f"{'OK  ' if ok else 'FAIL'} {device}: {detail}")
+    return 0 if all(ok for _, ok, _ in results) else EXIT_FAILURE
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="fvtree", description=__doc__)
+    p.add_argument("--debug", action="store_true", help="show tracebacks and debug logs")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    r = sub.add_parser("run", help="run a tree on a cell (the simulated one by default)")
+    r.add_argument("tree")
+    r.add_argument("--cell", default="sim", help="cell file or packaged cell name (default: sim)")
+    r.add_argument("--seed", type=int, default=0, help="seed of the simulated world's noise")
+    r.add_argument("--speed", choices=("realtime", "max"), default="max",
+                   help="simulated time: as fast as possible (max) or paced to the wall clock")
+    r.add_argument("--perception", choices=("signals", "pixels"), default=None,
+                   help="simulated FingerVision: from contact signals, or rendered frames through the pipeline")
+    r.add_argument("--runs-dir", default="runs", help="where run directories go (default: runs)")
+    r.add_argument("--resume", nargs="?", const="latest", default=None, metavar="RUN_DIR",
+                   help="continue a run, skipping elements already placed (default: the latest run)")
+    r.add_argument("--estop-at", type=float, default=None, metavar="SECONDS",
+                   help="simulate an e-stop at this cell time")
+    r.add_argument("--max-time", type=float, default=3600.0, metavar="SECONDS",
+                   help="give up after this much cell time")
+    r.add_argument("--no-plots", action="store_true", help="skip the PNG charts")
+    r.set_defaults(func=cmd_run)
+
+    v = sub.add_parser("validate", help="check tree files without running them")
+    v.add_argument("trees", nargs="+")
+    v.set_defaults(func=cmd_validate)
+
+    s = sub.add_parser("show", help="print a tree with its nodes' kinds, params and statuses")
+    s.add_argument("tree")
+    s.add_argument("--run", help="a run directory whose final statuses to show")
+    s.set_defaults(func=cmd_show)
+
+    k = sub.add_parser("skills", help="list every skill with its params and blackboard keys")
+    k.add_argument("--json", action="store_true")
+    k.set_defaults(func=cmd_skills)
+
+    j = sub.add_parser("schema", help="JSON Schema of the tree language, for editors")
+    j.add_argument("--out", help="write to this file instead of stdout")
+    j.set_defaults(func=cmd_schema)
+
+    b = sub.add_parser("bench", help="benchmarks that write a table and a chart")
+    b.add_argument("name", choices=sorted(BENCHES))
+    b.add_argument("--out", help="output directory (default: bench/NAME)")
+    b.add_argument("--quick", action="store_true", help="a short run for smoke tests")
+    b.set_defaults(func=cmd_bench)
+
+    c = sub.add_parser("check", help="connect to each device of a cell and report, moving nothing")
+    c.add_argument("--cell", required=True)
+    c.set_defaults(func=cmd_check)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parser().parse_args(argv)
+    import logging
+
+    logging.basicConfig(level=logging.DEBUG if args.debug else logging.WARNING,
+                        format="%(levelname)s %(name)s: %(message)s")
+    from assembly.errors import TreeError, TreeErrors
+    from drivers.cell import CellFileError
+
+    try:
+        return args.func(args)
+    except TreeErrors as exc:
+        for err in exc.errors:
+            print(err, file=sys.stderr)
+        return EXIT_USAGE
+    except TreeError as exc:
+        print(exc, file=sys.stderr)
+        return EXIT_USAGE
+    except CellFileError as exc:
+        from assembly.yaml_source import line_of_field
+
+        line = line_of_field(exc.path, exc.field)
+        where = f"{exc.path}:{line}" if line else exc.path
+        print(f"{where}: {exc.field + ': ' if exc.field else ''}{exc.message}", file=sys.stderr)
+        return EXIT_USAGE
+    except Exception as exc:  # noqa: BLE001 - last resort: one line unless --debug
+        if args.debug:
+            raise
+        print(f"error: {type(exc).__name__}: {exc} (rerun with --debug for the traceback)", file=sys.stderr)
+        return EXIT_FAILURE
+
+
+if __name__ == "__main__":
+    sys.exit(main())

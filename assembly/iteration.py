@@ -1,0 +1,87 @@
+"""Iteration over the design model's elements in build order, resuming past placed ones."""
+
+from __future__ import annotations
+
+import py_trees
+from py_trees.common import Access, Status
+
+from behaviours import keys
+
+
+class ForEachElement(py_trees.decorators.Decorator):
+    """Runs its child once per unplaced element, in build order.
+
+    Before each run it publishes the element's design entry on /task/element (and the plates on
+    /task/plates); when the child succeeds it hands /task/asbuilt to the design bridge, which
+    records the placement atomically. SUCCESS when every element is placed; FAILURE as soon as
+    one element fails (the model keeps what was placed, so a re-run resumes there).
+    """
+
+    def __init__(self, name: str, child: py_trees.behaviour.Behaviour, only: list[str] | None = None):
+        super().__init__(name=name, child=child)
+        self.only = only
+        self.design = None
+        self.bridge = None
+        self.queue: list[str] = []
+        self.current: str | None = None
+        self.bb = self.attach_blackboard_client(name=name)
+        for key in (keys.ELEMENT, keys.PLATES):
+            self.bb.register_key(key=key, access=Access.WRITE)
+        self.bb.register_key(key=keys.ASBUILT, access=Access.READ)
+
+    def setup(self, **kwargs) -> None:
+        self.design = kwargs.get("design")
+        self.bridge = kwargs.get("bridge")
+        if self.design is None:
+            raise RuntimeError(f"{self.name}: for_each_element needs a design model (tree 'design:')")
+
+    def remaining(self) -> list[str]:
+        order = self.design.build_order()
+        if self.only is not None:
+            order = [e for e in order if e in self.only]
+        return [e for e in order if not self.design.is_placed(e)]
+
+    def _publish_next(self) -> None:
+        self.current = self.queue.pop(0) if self.queue else None
+        if self.current is not None:
+            self.bb.set(keys.ELEMENT, self.design.element(self.current), overwrite=True)
+            self.bb.set(keys.PLATES, self.design.plates(), overwrite=True)
+            self.feedback_message = f"element {self.current}"
+
+    def initialise(self) -> None:
+        self.queue = self.remaining()
+        self._publish_next()
+
+    def tick(self):
+        if self.status != Status.RUNNING:
+            self.initialise()
+        if self.current is None:  # nothing left to build
+            self.feedback_message = "all elements placed"
+            new_status = Status.SUCCESS
+        else:
+            yield from self.decorated.tick()
+            new_status = self.update()
+        if new_status != Status.RUNNING:
+            self.stop(new_status)
+        self.status = new_status
+        yield self
+
+    def update(self) -> Status:
+        status = self.decorated.status
+        if status == Status.FAILURE:
+            if self.bridge:
+                self.bridge.event("failed", element=self.current, node=self.decorated.name,
+                                  feedback=self.decorated.tip().feedback_message if self.decorated.tip() else "")
+            return Status.FAILURE
+        if status != Status.SUCCESS:
+            return status
+        asbuilt = self.bb.get(keys.ASBUILT) if self.bb.exists(keys.ASBUILT) else None
+        if asbuilt is None or asbuilt.get("element") != self.current:
+            self.feedback_message = f"{self.current}: child succeeded without recording an as-built pose"
+            return Status.FAILURE
+        if self.bridge:
+            self.bridge.record_placement(self.current, asbuilt["pose"], asbuilt.get("load"))
+        else:
+            self.design.graph.nodes[self.current]["status"] = "placed"
+        self._publish_next()
+        return Status.SUCCESS if self.current is None else Status.RUNNING

@@ -1,0 +1,109 @@
+"""Run summaries: per placed element, the chosen position against the true maximum-load
+position (simulation only) with the force regret, sim and wall time, and a load-profile chart."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from assembly.design import atomic_write_json
+from assembly.runner import RunResult, as_jsonable
+
+
+def element_truth(world, element_id: str) -> dict | None:
+    """Placed position along its plate vs the plate's true maximum for the placed element."""
+    e = world.elements.get(element_id)
+    if e is None or e.state != "standing":
+        return None
+    _, top = e.ends()
+    plate = world.plate_above(top)
+    if plate is None:
+        return None
+    clearance = plate.origin[2] - top[2]
+    a = plate.position_along(top)
+    a_best, r_best = plate.beam.max_load(clearance)
+    r = float(plate.beam.carried_force(a, clearance))
+    return {"plate": plate.id, "position": a, "true_best_position": a_best, "load_N": r,
+            "true_max_load_N": r_best, "regret": (r_best - r) / r_best if r_best > 0 else 0.0}
+
+
+def summarize(result: RunResult, cell, design) -> dict:
+    elements = {}
+    for eid in (design.build_order() if design else []):
+        node = design.graph.nodes[eid]
+        entry = {"status": node.get("status", "planned"), "measured_load_px": node.get("measured_load"),
+                 "asbuilt_pose": node.get("asbuilt_pose")}
+        if cell.simulated and hasattr(cell.world, "elements"):
+            truth = element_truth(cell.world, eid)
+            if truth:
+                entry.update(truth)
+        elements[eid] = entry
+    return {
+        "status": result.status, "message": result.message, "where": result.where,
+        "ticks": result.ticks, "sim_time_s": round(result.sim_time, 3),
+        "wall_time_s": round(result.wall_time, 3),
+        "real_time_factor": round(result.real_time_factor, 1),
+        "safety_clamps": getattr(cell.arm, "clamped", 0), "arm_fault": cell.arm.fault(),
+        "elements": elements,
+    }
+
+
+def format_summary(summary: dict) -> str:
+    lines = [f"{summary['status']}" + (f": {summary['message']}" if summary["message"] else "")]
+    if summary["status"] != "SUCCESS" and summary["where"]:
+        lines.append(f"  stopped at: {summary['where']}")
+    placed = [e for e in summary["elements"].values() if e["status"] == "placed"]
+    lines.append(f"  elements placed: {len(placed)} of {len(summary['elements'])}")
+    for eid, e in summary["elements"].items():
+        if "position" in e:
+            lines.append(
+                f"  {eid} on {e['plate']}: placed at {e['position']:.4f} m, true max-load position "
+                f"{e['true_best_position']:.4f} m ({(e['position'] - e['true_best_position']) * 1000:+.1f} mm); "
+                f"load {e['load_N']:.2f} N of {e['true_max_load_N']:.2f} N max, "
+                f"regret {e['regret'] * 100:.3f} %")
+        elif e["status"] == "placed":
+            lines.append(f"  {eid}: placed at {e['asbuilt_pose'][:3]}, measured load {e['measured_load_px']}")
+    lines.append(f"  sim time {summary['sim_time_s']:.1f} s, wall time {summary['wall_time_s']:.2f} s, "
+                 f"real-time factor {summary['real_time_factor']:.0f}x, {summary['ticks']} ticks")
+    return "\n".join(lines)
+
+
+def plot_profiles(profiles: dict[str, dict], summary: dict, world, path: Path) -> Path | None:
+    """One panel per element: measured load along the plate, smoothing, chosen point, truth."""
+    if not profiles:
+        return None
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(len(profiles), 1, figsize=(8, 3.2 * len(profiles)), squeeze=False)
+    for ax, (eid, prof) in zip(axes[:, 0], profiles.items()):
+        x = np.asarray(prof["position"])
+        ax.plot(x, prof["load"], ".", ms=2, color="0.6", label="measured (FingerVision)")
+        ax.plot(x, prof["smoothed"], color="C0", label="smoothed")
+        ax.axvline(prof["best_position"], color="C0", ls="--", label=f"chosen {prof['best_position']:.3f} m")
+        ax.set_ylabel("load in the grip [px]")
+        truth = summary["elements"].get(eid, {})
+        if world is not None and "true_best_position" in truth:
+            plate = world.plates[truth["plate"]]
+            clearance = plate.origin[2] - world.elements[eid].ends()[1][2]
+            xs = np.linspace(x.min(), x.max(), 400)
+            twin = ax.twinx()
+            twin.plot(xs, plate.beam.carried_force(xs, clearance), color="C3", lw=1, label="true R(a) [N]")
+            twin.set_ylabel("true load as placed [N]", color="C3")
+            ax.axvline(truth["true_best_position"], color="C3", ls=":",
+                       label=f"true max {truth['true_best_position']:.3f} m")
+        ax.set_title(f"{eid}: load along plate {prof.get('plate', '')}")
+        ax.set_xlabel("position along the span a [m]")
+        ax.legend(loc="lower center", fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def write_summary(summary: dict, run_dir: Path) -> None:
+    atomic_write_json(run_dir / "summary.json", json.loads(json.dumps(summary, default=as_jsonable)))

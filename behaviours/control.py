@@ -1,0 +1,62 @@
+"""Small control laws shared by skills: leaky integrator, SpeedCtrl and the force-change
+detector of gentle grasping."""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+
+class LeakyIntegrator:
+    """x_t = a x_{t-1} - (1 - a) L: follows the input -L with inertia set by `a` (0..1)."""
+
+    def __init__(self, alpha: float, x0: float = 0.0):
+        if not 0.0 <= alpha < 1.0:
+            raise ValueError(f"leaky integrator alpha must be in [0, 1), got {alpha}")
+        self.alpha = alpha
+        self.x = x0
+
+    def step(self, drive: float) -> float:
+        self.x = self.alpha * self.x - (1.0 - self.alpha) * drive
+        return self.x
+
+
+def speed_ctrl_gain(v_min: float, v_max: float, f_min: float, f_max: float) -> float:
+    """SpeedCtrl alpha = (v_max - v_min) / (f_max - f_min): maps the force range to speeds."""
+    if f_max <= f_min:
+        raise ValueError(f"f_max ({f_max}) must exceed f_min ({f_min})")
+    return (v_max - v_min) / (f_max - f_min)
+
+
+class ForceChangeDetector:
+    """Fires when more than `min_markers` markers moved more than `threshold` from the
+    reference field taken over the first `reference_frames` frames (2023 gentle-grasp rule)."""
+
+    def __init__(self, threshold: float, min_markers: int, reference_frames: int = 3):
+        self.threshold = threshold
+        self.min_markers = min_markers
+        self.reference_frames = reference_frames
+        self._ref: list[np.ndarray] = []
+        self.changed = 0
+
+    def update(self, *marker_forces: np.ndarray) -> bool:
+        """Feed this frame's per-marker forces (one array per finger); True when it fires."""
+        f = np.concatenate(marker_forces)
+        if len(self._ref) < self.reference_frames:
+            self._ref.append(f)
+            return False
+        ref = np.mean(self._ref, axis=0)
+        self.changed = int(np.count_nonzero(np.linalg.norm(f - ref, axis=1) > self.threshold))
+        return self.changed > self.min_markers
+
+
+class MovingAverage:
+    """Mean of the last `n` vectors."""
+
+    def __init__(self, n: int):
+        self._buf: deque = deque(maxlen=n)
+
+    def update(self, value) -> np.ndarray:
+        self._buf.append(np.asarray(value, dtype=float))
+        return np.mean(self._buf, axis=0)

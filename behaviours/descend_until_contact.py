@@ -1,0 +1,45 @@
+"""Lower the held element until FingerVision feels the ground: |f_t - f_0| > eps."""
+
+from __future__ import annotations
+
+import numpy as np
+from py_trees.common import Status
+
+from behaviours import keys
+from behaviours.base import Param, ProgramSkill, summed_force
+from behaviours.registry import register
+
+
+@register
+class DescendUntilContact(ProgramSkill):
+    NAME = "descend_until_contact"
+    SUMMARY = "move down until the finger force changes by more than eps"
+    PARAMS = {
+        "speed": Param("float", "descent speed", 0.01, "m/s", min=1e-4, max=0.1),
+        "eps": Param("float", "force change that means contact", 0.5, "px", min=0.0),
+        "max_travel": Param("float", "give up after descending this far", 0.15, "m", min=0.0),
+        "reference_ticks": Param("int", "ticks averaged for the reference force f_0", 5, min=1),
+    }
+    READS = (keys.FV_LEFT, keys.FV_RIGHT)
+    WRITES = (keys.CONTACT_POSE,)
+
+    def program(self):
+        arm = self.cell.arm
+        f0 = yield from self.mean_force(self.p.reference_ticks)
+        start_z = arm.pose()[2]
+        arm.speed_linear(np.array([0.0, 0.0, -self.p.speed, 0.0, 0.0, 0.0]))
+        while True:
+            yield
+            left, right = self.tactile()
+            change = float(np.linalg.norm(summed_force(left, right) - f0))
+            travelled = start_z - arm.pose()[2]
+            self.feedback_message = f"down {travelled * 1000:.1f} mm, |f - f0| = {change:.2f}"
+            if change > self.p.eps:
+                arm.stop()
+                self.write(keys.CONTACT_POSE, arm.pose())
+                return Status.SUCCESS
+            if arm.fault():
+                return self.fail(f"arm fault: {arm.fault()}")
+            if travelled > self.p.max_travel:
+                arm.stop()
+                return self.fail(f"no contact within {self.p.max_travel} m of descent")

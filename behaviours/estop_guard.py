@@ -1,0 +1,25 @@
+"""E-stop guard: first child of a memoryless root selector, it takes priority when the e-stop
+is requested (the running branch is halted) and holds the arm and gripper still."""
+
+from __future__ import annotations
+
+from py_trees.common import Status
+
+from behaviours import keys
+from behaviours.base import Skill
+from behaviours.registry import register
+
+
+@register
+class EstopGuard(Skill):
+    NAME = "estop_guard"
+    SUMMARY = "RUNNING and holding the cell still while the e-stop is set; FAILURE otherwise"
+    READS = (keys.ESTOP,)
+
+    def update(self) -> Status:
+        if not self.read(keys.ESTOP, False):
+            return Status.FAILURE
+        self.cell.arm.stop()
+        self.cell.gripper.stop()
+        self.feedback_message = "e-stop active: arm and gripper stopped"
+        return Status.RUNNING

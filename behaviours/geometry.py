@@ -1,0 +1,41 @@
+"""Pose arithmetic on UR 6-vectors [x, y, z, rx, ry, rz] (rotation vectors)."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+
+def rotation(pose) -> np.ndarray:
+    """3x3 rotation matrix of a pose; column i is tool axis i in the base frame."""
+    return Rotation.from_rotvec(np.asarray(pose, float)[3:]).as_matrix()
+
+
+def translated(pose, offset) -> np.ndarray:
+    """The pose moved by a base-frame offset [dx, dy, dz]."""
+    out = np.array(pose, dtype=float)
+    out[:3] += np.asarray(offset, float)
+    return out
+
+
+def rotated_about_tool(pose, axis: int, angle: float) -> np.ndarray:
+    """The pose turned by `angle` rad about its own tool axis `axis` (0 x, 1 y, 2 z)."""
+    rotvec = np.zeros(3)
+    rotvec[axis] = angle
+    turned = Rotation.from_rotvec(np.asarray(pose, float)[3:]) * Rotation.from_rotvec(rotvec)
+    return np.concatenate([np.asarray(pose, float)[:3], turned.as_rotvec()])
+
+
+def angle_between(pose_a, pose_b) -> float:
+    """Rotation angle (rad) between the orientations of two poses."""
+    rel = Rotation.from_rotvec(np.asarray(pose_a, float)[3:]).inv() * Rotation.from_rotvec(
+        np.asarray(pose_b, float)[3:])
+    return float(rel.magnitude())
+
+
+def top_down_grasp(element_pose) -> np.ndarray:
+    """TCP pose at an element's centre with the tool pointing down and the fingers closing
+    across the element's width (tool = element frame turned half a turn about its x axis)."""
+    p = np.asarray(element_pose, float)
+    turned = Rotation.from_rotvec(p[3:]) * Rotation.from_rotvec([np.pi, 0.0, 0.0])
+    return np.concatenate([p[:3], turned.as_rotvec()])

@@ -1,0 +1,52 @@
+"""Peak of a noisy load profile from a continuous scan: smooth, take the best sample, then fit
+a local quadratic around it (robust under noise where golden-section search is not; see
+shared/reference/physics.md section 4)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class PeakEstimate:
+    position: float  # best position along the scan
+    load: float  # load there (fitted where the fit holds)
+    sample_position: float  # position of the best smoothed sample
+    smoothed: np.ndarray
+    coefficients: np.ndarray | None  # quadratic a x^2 + b x + c around the peak, if concave
+
+
+def moving_average(y: np.ndarray, n: int) -> np.ndarray:
+    """Centred mean over `n` samples, shrinking the window at the ends (no edge bias to 0)."""
+    if n <= 1:
+        return y.astype(float)
+    kernel = np.ones(n)
+    sums = np.convolve(y, kernel, mode="same")
+    counts = np.convolve(np.ones_like(y, dtype=float), kernel, mode="same")
+    return sums / counts
+
+
+def locate_peak(x, y, smooth_window: float, fit_half_width: float) -> PeakEstimate:
+    """Estimate where the load y(x) peaks; `smooth_window` and `fit_half_width` in x units."""
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    if len(x) < 5 or len(x) != len(y):
+        raise ValueError(f"need at least 5 paired samples to locate a peak, got {len(x)}")
+    order = np.argsort(x)
+    x, y = x[order], y[order]
+    spacing = (x[-1] - x[0]) / (len(x) - 1)
+    n = max(1, int(round(smooth_window / spacing))) if spacing > 0 else 1
+    smoothed = moving_average(y, n)
+    i = int(np.argmax(smoothed))
+    near = np.abs(x - x[i]) <= fit_half_width
+    if near.sum() >= 5:
+        coeffs = np.polyfit(x[near] - x[i], y[near], 2)
+        if coeffs[0] < 0:
+            vertex = -coeffs[1] / (2 * coeffs[0])
+            if abs(vertex) <= fit_half_width:
+                best = x[i] + vertex
+                return PeakEstimate(float(best), float(np.polyval(coeffs, vertex)), float(x[i]),
+                                    smoothed, coeffs)
+    return PeakEstimate(float(x[i]), float(smoothed[i]), float(x[i]), smoothed, None)

@@ -1,0 +1,60 @@
+"""Locate the element at its pick area: go above the design pick pose with the gripper open,
+lower the fingertips around it, and centre between the fingers with proximity vision (the
+fingertip nearer the element sees it bigger)."""
+
+from __future__ import annotations
+
+import numpy as np
+from py_trees.common import Status
+
+from behaviours import keys
+from behaviours.base import Param, ProgramSkill
+from behaviours.geometry import rotation, top_down_grasp, translated
+from behaviours.registry import register
+
+
+@register
+class LocateElement(ProgramSkill):
+    NAME = "locate_element"
+    SUMMARY = "find the current element at its pick pose and centre the open fingers on it"
+    PARAMS = {
+        "hover": Param("float", "approach height above the element's top", 0.08, "m", min=0.0, max=0.5),
+        "speed": Param("float", "approach speed", 0.15, "m/s", min=0.001, max=1.0),
+        "gain": Param("float", "centring step per unit of left/right area imbalance", 0.01, "m", min=0.0),
+        "tolerance": Param("float", "accepted left/right area imbalance (share of their sum)", 0.05, min=0.0, max=1.0),
+        "max_ticks": Param("int", "ticks allowed for centring", 200, min=1),
+    }
+    READS = (keys.ELEMENT, keys.FV_LEFT, keys.FV_RIGHT)
+    WRITES = (keys.ELEMENT_POSE,)
+
+    def program(self):
+        element = self.read(keys.ELEMENT)
+        if element is None:
+            return self.fail(f"no element to locate: {keys.ELEMENT} is unset (use for_each_element)")
+        gripper = self.cell.gripper
+        gripper.move(gripper.max_width, speed=0.1)
+        pick = top_down_grasp(element["pick_pose"])
+        depth = element["size"][2]
+        self.feedback_message = f"approaching {element['id']}"
+        for target in (translated(pick, [0, 0, depth / 2 + self.p.hover]), pick):
+            fault = yield from self.move(target, self.p.speed)
+            if fault:
+                return self.fail(fault)
+        while gripper.is_moving():
+            yield
+        across = rotation(self.cell.arm.pose())[:, 1]  # the fingers close along tool y
+        for _ in range(self.p.max_ticks):
+            left, right = self.tactile()
+            if not (left.obj.present and right.obj.present):
+                return self.fail(f"element {element['id']} not seen between the fingers at "
+                                 f"{np.round(self.cell.arm.pose()[:3], 3).tolist()}")
+            total = left.obj.area + right.obj.area
+            imbalance = (right.obj.area - left.obj.area) / total
+            if abs(imbalance) <= self.p.tolerance:
+                self.write(keys.ELEMENT_POSE, self.cell.arm.pose())
+                self.feedback_message = f"centred on {element['id']}"
+                return Status.SUCCESS
+            self.cell.arm.move_linear(translated(self.cell.arm.pose(), across * self.p.gain * imbalance),
+                                      self.p.speed)
+            yield
+        return self.fail(f"could not centre on {element['id']} within {self.p.max_ticks} ticks")

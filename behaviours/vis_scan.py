@@ -1,0 +1,81 @@
+"""VisScan: follow the element along its axis with proximity vision until each end leaves the
+fingertip view; the two edges give the element's length and its middle (the grasp point)."""
+
+from __future__ import annotations
+
+import numpy as np
+from py_trees.common import Status
+
+from behaviours import keys
+from behaviours.base import Param, ProgramSkill
+from behaviours.geometry import rotation
+from behaviours.registry import register
+
+
+@register
+class VisScan(ProgramSkill):
+    NAME = "vis_scan"
+    SUMMARY = "measure the element's length by finding both ends with proximity vision"
+    PARAMS = {
+        "step": Param("float", "scan step per tick", 0.002, "m", min=1e-4, max=0.02),
+        "edge_fraction": Param("float", "share of the full-view area at which the edge is declared", 0.5, min=0.05, max=0.95),
+        "max_travel": Param("float", "longest scan in each direction", 0.5, "m", min=0.01),
+        "length_tolerance": Param("float", "allowed difference from the design length", 0.02, "m", min=0.0),
+        "speed": Param("float", "speed of the final move to the middle", 0.1, "m/s", min=0.001),
+    }
+    READS = (keys.ELEMENT, keys.FV_LEFT, keys.FV_RIGHT)
+    WRITES = (keys.ELEMENT_LENGTH, keys.ELEMENT_POSE)
+
+    def _area(self) -> float:
+        left, right = self.tactile()
+        return left.obj.area + right.obj.area
+
+    def _find_edge(self, direction: np.ndarray, threshold: float):
+        """Step along `direction` until the seen area drops below `threshold`; return the
+        interpolated TCP position of the crossing, or None."""
+        arm = self.cell.arm
+        start = arm.pose()
+        prev_pos, prev_area = start[:3].copy(), self._area()
+        for _ in range(int(self.p.max_travel / self.p.step)):
+            target = arm.pose()
+            target[:3] += direction * self.p.step
+            arm.move_linear(target, self.p.step / self.cell.clock.period)
+            yield
+            pos, area = arm.pose()[:3], self._area()
+            if area < threshold <= prev_area:
+                w = (prev_area - threshold) / max(prev_area - area, 1e-12)
+                arm.stop()
+                return prev_pos + w * (pos - prev_pos)
+            prev_pos, prev_area = pos.copy(), area
+        arm.stop()
+        return None
+
+    def program(self):
+        element = self.read(keys.ELEMENT)
+        full = self._area()
+        if full <= 0.0:
+            return self.fail("no object in view: locate the element first")
+        threshold = self.p.edge_fraction * full
+        axis = rotation(self.cell.arm.pose())[:, 0]
+        edges = []
+        for sign in (1.0, -1.0):
+            self.feedback_message = f"scanning {'forward' if sign > 0 else 'back'}"
+            edge = yield from self._find_edge(sign * axis, threshold)
+            if edge is None:
+                return self.fail(f"no element end within {self.p.max_travel} m scanning "
+                                 f"{'forward' if sign > 0 else 'back'}")
+            edges.append(edge)
+        length = float(np.linalg.norm(edges[0] - edges[1]))
+        design = element["size"][0] if element else None
+        if design is not None and abs(length - design) > self.p.length_tolerance:
+            return self.fail(f"measured length {length:.4f} m differs from the design "
+                             f"{design:.4f} m by more than {self.p.length_tolerance} m")
+        middle = self.cell.arm.pose()
+        middle[:3] = (edges[0] + edges[1]) / 2.0
+        fault = yield from self.move(middle, self.p.speed)
+        if fault:
+            return self.fail(fault)
+        self.write(keys.ELEMENT_LENGTH, length)
+        self.write(keys.ELEMENT_POSE, middle)
+        self.feedback_message = f"length {length:.4f} m"
+        return Status.SUCCESS

@@ -1,0 +1,279 @@
+"""Pipeline configuration: typed, validated settings and named YAML presets.
+
+A preset is a YAML file in `perception/presets/` (`original`: the 2018-era FingerVision defaults;
+`thesis`: `original` plus the thesis Kalman filter; `fast`: the quickest setting that keeps the
+accuracy targets). Any key left out of a YAML file keeps the dataclass default below.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal, Mapping
+
+import yaml
+
+PRESET_DIR = Path(__file__).with_name("presets")
+
+
+class ConfigError(ValueError):
+    """A perception config file or override is malformed; the message names the key."""
+
+
+@dataclass(frozen=True)
+class ThresholdConfig:
+    """Marker mask: `hsv` is the original fixed V threshold, `adaptive` compares with the local mean."""
+
+    mode: Literal["hsv", "adaptive"] = "hsv"
+    v_max: int = 42  # hsv: pixels with V <= v_max are marker pixels (ThreshV)
+    block: int = 21  # adaptive: odd neighbourhood size in px
+    offset: float = 25.0  # adaptive: grey levels darker than the local mean
+    n_dilate: int = 0  # NDilate1
+    n_erode: int = 0  # NErode1
+
+
+@dataclass(frozen=True)
+class DetectorConfig:
+    """Full-frame blob detector: `blob` (SimpleBlobDetector, original) or `cc` (connected components)."""
+
+    kind: Literal["blob", "cc"] = "cc"
+    min_area: float = 10.0  # px^2
+    max_area: float = 150.0
+    min_circularity: float = 0.10
+    min_convexity: float = 0.87
+    min_inertia_ratio: float = 0.01
+    min_dist_between: float = 10.0
+    min_repeatability: int = 2
+    blob_thresholds: tuple[float, float, float] = (5.0, 200.0, 10.0)  # min, max, step
+
+
+@dataclass(frozen=True)
+class TrackerConfig:
+    """Frame-to-frame marker tracking and its gates (names of the original in comments)."""
+
+    kind: Literal["roi", "assign", "window"] = "window"
+    search: int = 30  # SWidth: ROI side in px (roi tracker)
+    max_jump: float = 5.0  # VPMax: px from the predicted position
+    max_size_change: float = 1.0  # VSMax: px of diameter from the predicted size
+    n_reset: int = 3  # NReset: reset a marker to its origin after more failures than this
+    nonzero_range: tuple[float, float] = (0.3, 3.0)  # NonZeroMin/Max of the ROI mask fill
+    window: float = 0.0  # window tracker: half side in px; 0 = from the marker size
+    min_contrast: float = 20.0  # window tracker: grey levels between background and marker core
+    area_range: tuple[float, float] = (0.4, 2.5)  # window tracker: dark area over calibrated area
+    consistency: float = 0.0  # px; flag markers whose displacement leaves their neighbours' (0 = off)
+    neighbours: int = 4  # neighbours used by the consistency check
+
+
+@dataclass(frozen=True)
+class CalibrationConfig:
+    """No-contact calibration of the marker map (`Calibrate` of the original)."""
+
+    n_frames: int = 10  # NCalibPoints
+    max_drift: float = 0.8  # DistMaxCalib, px
+    max_size_drift: float = 0.5  # DSMaxCalib, px
+    origin: Literal["first", "mean"] = "mean"  # original: the first frame's detection
+
+
+@dataclass(frozen=True)
+class KalmanConfig:
+    """Per-marker Kalman filter of the thesis, state [x0, xt, y0, yt, s], vectorised."""
+
+    enabled: bool = True
+    process_noise: float = 0.01
+    measurement_noise: float = 0.1
+    initial_cov: float = 0.1
+    reinit_gate: float = 0.0  # chi-square (2 dof) of the innovation that restarts a marker; 0 = off
+
+
+@dataclass(frozen=True)
+class WrenchConfig:
+    """Force/torque estimation from the marker field (see `perception.wrench`)."""
+
+    normal_mode: Literal["xy_norm", "marker_size"] = "xy_norm"
+    averaging: Literal["mean", "median", "robust"] = "mean"
+    force_scale: tuple[float, float, float] = (1.0, 1.0, 1.0)  # px -> calibrated unit
+    torque_scale: tuple[float, float, float] = (1.0, 1.0, 1.0)
+
+
+@dataclass(frozen=True)
+class ProximityConfig:
+    """Proximity vision (`TObjDetTrackBSP` of the original) on a resized frame."""
+
+    enabled: bool = True
+    width: int = 160
+    height: int = 120
+    thresh_blk_v: int = 1  # ThreshBlkV
+    bins: tuple[int, int, int] = (50, 10, 10)  # H, S, V
+    f_gain: float = 2.5
+    f_bg: float = 1.0
+    n_models: int = 5
+    frames_in_hist: int = 200
+    backproj_scale: float = 5.0
+    mask_threshold: int = 150
+    n_erode: int = 2
+    n_dilate: int = 7
+    n_bg_frames: int = 3
+    min_area: float = 0.005  # object present when its mask covers this share of the image
+
+
+@dataclass(frozen=True)
+class SlipConfig:
+    """Slip: moving object pixels by `mog2` (original) or `flow` (DIS optical flow), or `off`."""
+
+    method: Literal["mog2", "flow", "off"] = "mog2"
+    history: int = 30
+    var_threshold: float = 10.0
+    shadows: bool = True
+    learning_rate: float = 1.0 / 30.0
+    flow_preset: Literal["ultrafast", "fast", "medium"] = "ultrafast"
+    min_speed: float = 0.5  # flow: px per frame at 320x240 counted as motion
+
+
+@dataclass(frozen=True)
+class HealthConfig:
+    """When a state is flagged unhealthy."""
+
+    min_tracked: float = 0.5  # share of calibrated markers tracked this frame
+    dark_level: float = 15.0  # mean grey level below which the image is too dark
+    saturated_share: float = 0.5  # share of pixels at >= 250 above which it is washed out
+    frozen_frames: int = 5  # identical consecutive frames before the camera counts as frozen
+
+
+@dataclass(frozen=True)
+class FingerVisionConfig:
+    """Everything `FingerVision` needs, one section per stage."""
+
+    name: str = "custom"
+    camera_fps: float = 30.0  # the Kalman filter's dt = 1 / camera_fps
+    threshold: ThresholdConfig = field(default_factory=ThresholdConfig)
+    detector: DetectorConfig = field(default_factory=DetectorConfig)
+    tracker: TrackerConfig = field(default_factory=TrackerConfig)
+    calibration: CalibrationConfig = field(default_factory=CalibrationConfig)
+    kalman: KalmanConfig = field(default_factory=KalmanConfig)
+    wrench: WrenchConfig = field(default_factory=WrenchConfig)
+    proximity: ProximityConfig = field(default_factory=ProximityConfig)
+    slip: SlipConfig = field(default_factory=SlipConfig)
+    health: HealthConfig = field(default_factory=HealthConfig)
+
+    def with_overrides(self, overrides: Mapping[str, Any]) -> "FingerVisionConfig":
+        """A copy with dotted keys replaced, e.g. {"kalman.enabled": False}."""
+        data = dataclasses.asdict(self)
+        for key, value in overrides.items():
+            node = data
+            parts = key.split(".")
+            for part in parts[:-1]:
+                if not isinstance(node.get(part), dict):
+                    raise ConfigError(f"override {key!r}: {part!r} is not a config section")
+                node = node[part]
+            if parts[-1] not in node:
+                raise ConfigError(f"override {key!r}: unknown key{_hint(parts[-1], node)}")
+            node[parts[-1]] = value
+        return from_dict(data, source="overrides")
+
+
+def _hint(key: str, known) -> str:
+    close = difflib.get_close_matches(key, list(known), n=1)
+    return f"; did you mean {close[0]!r}?" if close else f"; known: {', '.join(sorted(known))}"
+
+
+def _coerce(value: Any, kind: Any, where: str) -> Any:
+    """Check one YAML value against its annotated type and convert lists to tuples."""
+    text = str(kind)
+    if text.startswith("tuple"):
+        n = text.count(",") + 1
+        if not isinstance(value, (list, tuple)) or len(value) != n:
+            raise ConfigError(f"{where}: expected a list of {n} numbers, got {value!r}")
+        return tuple(_coerce(v, text[6:-1].split(",")[0].strip(), where) for v in value)
+    if text.startswith("Literal"):
+        allowed = [a.strip().strip("'\"") for a in text[8:-1].split(",")]
+        if value not in allowed:
+            raise ConfigError(f"{where}: {value!r} is not one of {', '.join(allowed)}")
+        return value
+    if text == "bool":
+        if not isinstance(value, bool):
+            raise ConfigError(f"{where}: expected true or false, got {value!r}")
+        return value
+    if text in ("int", "float"):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(f"{where}: expected a number, got {value!r}")
+        if text == "int" and float(value) != int(value):
+            raise ConfigError(f"{where}: expected an integer, got {value!r}")
+        return int(value) if text == "int" else float(value)
+    if text == "str":
+        return str(value)
+    raise ConfigError(f"{where}: unsupported type {text}")  # a programming error in this module
+
+
+def _build(cls, data: Any, where: str):
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"{where}: expected a mapping, got {type(data).__name__}")
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    kwargs = {}
+    for key, value in data.items():
+        if key not in fields:
+            raise ConfigError(f"{where}: unknown key {key!r}{_hint(str(key), fields)}")
+        kind = fields[key].type
+        sub = f"{where}.{key}" if where else key
+        if dataclasses.is_dataclass(fields[key].default_factory if fields[key].default_factory
+                                    is not dataclasses.MISSING else None):
+            kwargs[key] = _build(fields[key].default_factory, value, sub)
+        else:
+            kwargs[key] = _coerce(value, kind, sub)
+    return cls(**kwargs)
+
+
+def from_dict(data: Mapping[str, Any], source: str = "config") -> FingerVisionConfig:
+    """Validate a nested mapping into a config; unknown keys and bad values raise `ConfigError`."""
+    try:
+        config = _build(FingerVisionConfig, data, "")
+    except ConfigError as exc:
+        raise ConfigError(f"{source}: {exc}") from None
+    _check(config, source)
+    return config
+
+
+def _check(c: FingerVisionConfig, source: str) -> None:
+    """Cross-field checks that types alone cannot express."""
+    problems = []
+    if c.camera_fps <= 0:
+        problems.append("camera_fps must be positive")
+    if c.threshold.mode == "adaptive" and (c.threshold.block < 3 or c.threshold.block % 2 == 0):
+        problems.append("threshold.block must be an odd number >= 3")
+    if c.calibration.n_frames < 2:
+        problems.append("calibration.n_frames must be at least 2 (one to detect, one to check)")
+    if c.kalman.enabled and min(c.kalman.process_noise, c.kalman.measurement_noise,
+                                c.kalman.initial_cov) <= 0:
+        problems.append("kalman noise and covariance values must be positive")
+    if c.proximity.width < 24 or c.proximity.height < 24:
+        problems.append("proximity.width and height must be at least 24 px")
+    if c.tracker.area_range[0] >= c.tracker.area_range[1]:
+        problems.append("tracker.area_range must be [low, high] with low < high")
+    if problems:
+        raise ConfigError(f"{source}: " + "; ".join(problems))
+
+
+def preset_names() -> list[str]:
+    """Names of the shipped presets."""
+    return sorted(p.stem for p in PRESET_DIR.glob("*.yaml"))
+
+
+def load_config(preset: str | Path = "fast", **overrides: Any) -> FingerVisionConfig:
+    """Load a named preset or a YAML file, then apply dotted overrides (`kalman__enabled=False`)."""
+    path = Path(preset)
+    if path.suffix not in (".yaml", ".yml"):
+        path = PRESET_DIR / f"{preset}.yaml"
+        if not path.is_file():
+            raise ConfigError(f"no perception preset {str(preset)!r}{_hint(str(preset), preset_names())}")
+    try:
+        data = yaml.safe_load(path.read_text()) or {}
+    except OSError as exc:
+        raise ConfigError(f"cannot read perception config {path}: {exc.strerror}") from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
+    data.setdefault("name", path.stem)
+    config = from_dict(data, source=str(path))
+    if overrides:
+        config = config.with_overrides({k.replace("__", "."): v for k, v in overrides.items()})
+    return config

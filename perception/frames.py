@@ -1,0 +1,64 @@
+"""Frame checks: reject malformed frames with a reason and flag unusable images (dark, washed out,
+frozen) before any stage looks at them."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from perception.config import HealthConfig
+
+
+class FrameError(ValueError):
+    """A frame cannot be processed at all (wrong type, shape, dtype or size)."""
+
+
+def as_bgr(frame: object, size: tuple[int, int] | None = None) -> np.ndarray:
+    """Return the frame as a contiguous (H, W, 3) uint8 BGR image, or raise `FrameError` saying why."""
+    if not isinstance(frame, np.ndarray):
+        raise FrameError(f"frame is a {type(frame).__name__}, expected a numpy uint8 image")
+    if frame.size == 0:
+        raise FrameError(f"frame is empty (shape {frame.shape}); is the camera delivering images?")
+    if frame.dtype != np.uint8:
+        raise FrameError(f"frame dtype is {frame.dtype}, expected uint8 (8-bit BGR as from cv2)")
+    if frame.ndim == 2:
+        frame = cv2.cvtColor(frame, cv2.COLOR_GRAY2BGR)
+    elif frame.ndim != 3 or frame.shape[2] not in (3, 4):
+        raise FrameError(f"frame shape is {frame.shape}, expected (H, W, 3) BGR or (H, W) grey")
+    elif frame.shape[2] == 4:
+        frame = cv2.cvtColor(frame, cv2.COLOR_BGRA2BGR)
+    if size is not None and (frame.shape[1], frame.shape[0]) != tuple(size):
+        raise FrameError(f"frame is {frame.shape[1]}x{frame.shape[0]} but the sensor was calibrated "
+                         f"at {size[0]}x{size[1]}; recalibrate or fix the camera resolution")
+    return np.ascontiguousarray(frame)
+
+
+class ImageQuality:
+    """Per-frame usability check of the grey image: too dark, washed out, or frozen camera."""
+
+    def __init__(self, config: HealthConfig):
+        self.config = config
+        self._last: np.ndarray | None = None
+        self._repeats = 0
+
+    def reset(self) -> None:
+        """Forget the previous frame (after a recalibration or camera restart)."""
+        self._last, self._repeats = None, 0
+
+    def problem(self, grey: np.ndarray) -> str:
+        """Why this grey frame is unusable, or "" when it is fine."""
+        sample = grey[::4, ::4]  # 1/16 of the pixels is plenty for global statistics
+        if self._last is not None and np.array_equal(sample, self._last):
+            self._repeats += 1
+        else:
+            self._repeats = 0
+        self._last = sample.copy()
+        mean = float(sample.mean())
+        if mean < self.config.dark_level:
+            return f"image too dark (mean grey {mean:.0f} < {self.config.dark_level:.0f}); check lighting"
+        saturated = float(np.count_nonzero(sample >= 250)) / sample.size
+        if saturated > self.config.saturated_share:
+            return f"image washed out ({saturated:.0%} of pixels saturated); reduce exposure or glare"
+        if self._repeats >= self.config.frozen_frames:
+            return f"camera frozen ({self._repeats + 1} identical frames)"
+        return ""

@@ -1,0 +1,76 @@
+"""The thesis Kalman filter on every marker at once (Sadybakasov 2019, sec. 2.2.4).
+
+State per marker [x0, xt, y0, yt, s] with
+  A = [[1, dt, 0, 0, 0], [0, 1, 0, 0, 0], [0, 0, 1, dt, 0], [0, 0, 0, 1, 0], [0, 0, 0, 0, 1]],
+  H = rows (x0, y0, s), Q = q I, R = r I, initial covariance c I, dt = 1 / camera fps:
+a constant-velocity filter on the position and a random walk on the size. The covariance update
+is the standard (I - K H) P (the thesis' eq. 2.4 prints (I - Q H)^-1, a typo).
+
+Because A is block diagonal and Q, R, P0 are multiples of I, the x and y blocks share one 2x2
+covariance per marker and the size one scalar, so the filter is exact with per-marker arrays of
+three plus one numbers. Markers without a measurement keep their estimate (no extrapolation) while
+their covariance grows. Optional: an innovation gate (chi-square, 2 dof) that restarts a marker at
+its measurement, so a real step is followed at once instead of being smoothed away.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from perception.config import KalmanConfig
+
+
+class MarkerKalman:
+    """Vectorised per-marker Kalman filter; `update` filters one frame of measurements."""
+
+    def __init__(self, cfg: KalmanConfig, dt: float, position: np.ndarray, size: np.ndarray):
+        if dt <= 0:
+            raise ValueError(f"Kalman time step must be positive, got {dt}")
+        self.cfg, self.dt = cfg, float(dt)
+        n = len(size)
+        self.pos = np.asarray(position, float).copy()  # (N, 2)  x0, y0
+        self.vel = np.zeros((n, 2))  # (N, 2)  xt, yt
+        self.size = np.asarray(size, float).copy()  # (N,)
+        self.p00 = np.full(n, cfg.initial_cov)  # position variance
+        self.p01 = np.zeros(n)  # position-velocity covariance
+        self.p11 = np.full(n, cfg.initial_cov)  # velocity variance
+        self.ps = np.full(n, cfg.initial_cov)  # size variance
+
+    def restart(self, which: np.ndarray, position: np.ndarray, size: np.ndarray) -> None:
+        """Re-initialise the selected markers at the given position and size, at rest."""
+        c = self.cfg.initial_cov
+        self.pos[which] = position[which]
+        self.size[which] = size[which]
+        self.vel[which] = 0.0
+        self.p00[which], self.p01[which], self.p11[which], self.ps[which] = c, 0.0, c, c
+
+    def update(self, z_pos: np.ndarray, z_size: np.ndarray, valid: np.ndarray):
+        """Filter one frame: (N, 2) positions and (N,) sizes, used where `valid`; returns (pos, size)."""
+        q, r, dt = self.cfg.process_noise, self.cfg.measurement_noise, self.dt
+        v = valid
+        # Predict (measured markers move with their velocity; unmeasured ones hold still).
+        self.pos[v] += dt * self.vel[v]
+        self.p00[v] += 2.0 * dt * self.p01[v] + dt * dt * self.p11[v]
+        self.p01[v] += dt * self.p11[v]
+        self.p00 += q
+        self.p11 += q
+        self.ps += q
+        # Correct.
+        s = self.p00[v] + r
+        nu = z_pos[v] - self.pos[v]
+        k0, k1 = self.p00[v] / s, self.p01[v] / s
+        self.pos[v] += k0[:, None] * nu
+        self.vel[v] += k1[:, None] * nu
+        p01 = self.p01[v]
+        self.p11[v] -= k1 * p01
+        self.p01[v] = (1.0 - k0) * p01
+        self.p00[v] *= 1.0 - k0
+        ks = self.ps[v] / (self.ps[v] + r)
+        self.size[v] += ks * (z_size[v] - self.size[v])
+        self.ps[v] *= 1.0 - ks
+        if self.cfg.reinit_gate > 0:
+            jump = np.zeros(len(v), bool)
+            jump[v] = (nu * nu).sum(axis=1) / s > self.cfg.reinit_gate
+            if jump.any():
+                self.restart(jump, z_pos, z_size)
+        return self.pos.copy(), self.size.copy()

@@ -1,0 +1,141 @@
+"""Proximity vision: what the camera sees through the skin (after the original `TObjDetTrackBSP`).
+
+A background colour histogram (frames with no object), an object colour model (HSV histograms
+learned from moving pixels in detect mode, or added by hand from a masked frame), back-projection
+into an object mask, and image moments -> area, centroid, orientation, plus 3x3 cell summaries.
+Everything runs on a copy of the frame resized to `width x height`.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+from typing import Sequence
+
+import cv2
+import numpy as np
+
+from perception.config import ProximityConfig
+from perception.state import ObjectInfo
+
+_KERNEL = np.ones((3, 3), np.uint8)
+_RANGES = [0, 180, 0, 256, 0, 256]
+
+
+@dataclass(frozen=True)
+class ProxFrame:
+    """One frame at the proximity resolution: BGR, HSV and the not-black mask."""
+
+    bgr: np.ndarray
+    hsv: np.ndarray
+    not_black: np.ndarray  # uint8 255 where V > thresh_blk_v (markers and dark areas are excluded)
+
+
+def cell_means(mask: np.ndarray) -> np.ndarray:
+    """(3, 3) mean of `mask` (0..255) over floor(W/3) x floor(H/3) cells."""
+    h, w = mask.shape
+    ch, cw = h // 3, w // 3
+    return mask[: 3 * ch, : 3 * cw].reshape(3, ch, 3, cw).mean(axis=(1, 3))
+
+
+class ProximityVision:
+    """Background and object colour models, object mask and its shape summary."""
+
+    def __init__(self, cfg: ProximityConfig):
+        self.cfg = cfg
+        self._bins = list(cfg.bins)
+        self.background: np.ndarray | None = None
+        self._models: deque[np.ndarray] = deque(maxlen=cfg.n_models)
+        self._models.append(self._zero())
+        self.learning = False
+        self._frames = 0
+
+    def _zero(self) -> np.ndarray:
+        return np.zeros(self.cfg.bins, np.float32)
+
+    def _hist(self, hsv: np.ndarray, mask: np.ndarray | None) -> np.ndarray:
+        return cv2.calcHist([hsv], [0, 1, 2], mask, self._bins, _RANGES)
+
+    def prepare(self, bgr: np.ndarray) -> ProxFrame:
+        """Resize (nearest, as the original) and convert one frame."""
+        size = (self.cfg.width, self.cfg.height)
+        small = bgr if (bgr.shape[1], bgr.shape[0]) == size else cv2.resize(
+            bgr, size, interpolation=cv2.INTER_NEAREST)
+        hsv = cv2.cvtColor(small, cv2.COLOR_BGR2HSV)
+        _, not_black = cv2.threshold(hsv[:, :, 2], self.cfg.thresh_blk_v, 255, cv2.THRESH_BINARY)
+        return ProxFrame(small, hsv, not_black)
+
+    def calibrate_background(self, frames: Sequence[np.ndarray]) -> None:
+        """Background histogram: the mean over up to `n_bg_frames` frames with no object."""
+        if not frames:
+            raise ValueError("background calibration needs at least one frame with no object")
+        hists = [self._hist(self.prepare(f).hsv, None) for f in frames[: self.cfg.n_bg_frames]]
+        self.background = np.mean(hists, axis=0).astype(np.float32)
+
+    @property
+    def has_model(self) -> bool:
+        """True once an object colour model exists (learned or added)."""
+        return bool(self._models[0].any())
+
+    def start_learning(self) -> None:
+        """Detect mode: learn the object model from moving pixels (needs a background first)."""
+        if self.background is None:
+            raise RuntimeError("calibrate the background (no object in view) before learning an object")
+        self.learning, self._frames = True, 0
+
+    def stop_learning(self) -> None:
+        """Freeze the object model (the original calls this before grasping)."""
+        self.learning = False
+
+    def clear_object(self) -> None:
+        """Forget the object model."""
+        self._models.clear()
+        self._models.append(self._zero())
+
+    def add_object(self, bgr: np.ndarray, mask: np.ndarray, gain: float = 1.0) -> None:
+        """Add the colours under `mask` (full-frame, nonzero = object) to the model, as a hand edit."""
+        frame = self.prepare(bgr)
+        small = cv2.resize(np.asarray(mask, np.uint8), (self.cfg.width, self.cfg.height),
+                           interpolation=cv2.INTER_NEAREST)
+        small = cv2.bitwise_and((small > 0).view(np.uint8) * np.uint8(255), frame.not_black)
+        added = gain * self._hist(frame.hsv, small)
+        for i, model in enumerate(self._models):
+            self._models[i] = np.minimum(model + added, 255.0).astype(np.float32)
+
+    def learn(self, frame: ProxFrame, motion: np.ndarray) -> None:
+        """One detect-mode step: add moving colours not explained by the background to every model."""
+        if not self.learning or self.background is None:
+            return
+        period = max(1, self.cfg.frames_in_hist // self.cfg.n_models)
+        if self._frames and self._frames % period == 0:
+            self._models.appendleft(self._zero())  # newest first; the deque drops the oldest
+        self._frames += 1
+        moving = cv2.bitwise_and(motion, frame.not_black)
+        gain = self.cfg.f_gain * np.maximum(self._hist(frame.hsv, moving) - self.cfg.f_bg * self.background, 0)
+        for i, model in enumerate(self._models):
+            self._models[i] = np.minimum(model + gain, 255.0).astype(np.float32)
+
+    def object_masks(self, frame: ProxFrame) -> tuple[np.ndarray, np.ndarray]:
+        """(object mask, dilated object mask) from back-projecting the oldest (tracking) model."""
+        model = self._models[-1]
+        back = cv2.calcBackProject([frame.hsv], [0, 1, 2], model, _RANGES, self.cfg.backproj_scale)
+        back = cv2.bitwise_and(back, frame.not_black)
+        # The original keeps values (TOZERO); erosion, dilation and binary moments only see the
+        # support, so a binary mask gives the same result and ANDs cleanly with motion masks.
+        _, back = cv2.threshold(back, self.cfg.mask_threshold, 255, cv2.THRESH_BINARY)
+        obj = cv2.erode(back, _KERNEL, iterations=self.cfg.n_erode) if self.cfg.n_erode else back
+        wide = cv2.dilate(obj, _KERNEL, iterations=self.cfg.n_dilate) if self.cfg.n_dilate else obj
+        return obj, wide
+
+    def describe(self, obj_mask: np.ndarray) -> ObjectInfo:
+        """Area share, centroid (about the image centre, over (W + H) / 2), orientation, 3x3 fill."""
+        h, w = obj_mask.shape
+        m = cv2.moments(obj_mask, binaryImage=True)
+        area = m["m00"] / float(w * h)
+        cells = cell_means(obj_mask) / 255.0
+        if area < self.cfg.min_area:
+            return ObjectInfo(False, area, np.zeros(2), 0.0, cells)
+        div = (w + h) / 2.0
+        centroid = np.array([(m["m10"] / m["m00"] - w / 2.0) / div, (m["m01"] / m["m00"] - h / 2.0) / div])
+        angle = 0.5 * np.arctan2(2.0 * m["mu11"], m["mu20"] - m["mu02"])
+        return ObjectInfo(True, area, centroid, float(angle), cells)
