@@ -97,6 +97,6 @@ def wrench(
         return np.zeros(3), np.zeros(3)
     f = marker_forces(markers, finger, mode)[valid]
     p = marker_levers(markers, finger)[valid]
-    lever = np.column_stack([p[:, 0], np.zeros(len(p)), p[:, 1]])
-    tau = np.cross(lever, f)
+    # cross([p0, 0, p1], f) written out: np.cross costs ~50 us per call on small arrays.
+    tau = np.column_stack([-p[:, 1] * f[:, 1], p[:, 1] * f[:, 0] - p[:, 0] * f[:, 2], p[:, 0] * f[:, 1]])
     return _average(f, averaging) * force_scale, _average(tau, averaging) * torque_scale
