@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from drivers.protocols import Clock
+from drivers.sim.transforms import matrix_to_rotvec, rotvec_to_matrix
 
 
 class KinematicArm:
@@ -74,8 +74,8 @@ class KinematicArm:
             self._pose[:3] += v * dt
             w = self._twist[3:]
             if np.any(w):
-                rot = Rotation.from_rotvec(w * dt) * Rotation.from_rotvec(self._pose[3:])
-                self._pose[3:] = rot.as_rotvec()
+                rot = rotvec_to_matrix(w * dt) @ rotvec_to_matrix(self._pose[3:])
+                self._pose[3:] = matrix_to_rotvec(rot)
         self._velocity[:3] = (self._pose[:3] - before[:3]) / dt
 
     def _step_towards_target(self, dt: float) -> None:
@@ -85,15 +85,15 @@ class KinematicArm:
         reach = self._target_speed * dt
         self._pose[:3] = target[:3] if dist <= reach else self._pose[:3] + delta * (reach / dist)
         arrived_rot = True
-        if not np.allclose(target[3:], self._pose[3:]):
-            cur = Rotation.from_rotvec(self._pose[3:])
-            err = (Rotation.from_rotvec(target[3:]) * cur.inv()).as_rotvec()
+        if np.abs(target[3:] - self._pose[3:]).max() > 1e-9:
+            cur = rotvec_to_matrix(self._pose[3:])
+            err = matrix_to_rotvec(rotvec_to_matrix(target[3:]) @ cur.T)
             angle = float(np.linalg.norm(err))
             max_step = self.max_angular_speed * dt
             if angle > max_step:
                 err *= max_step / angle
                 arrived_rot = False
-            self._pose[3:] = (Rotation.from_rotvec(err) * cur).as_rotvec()
+            self._pose[3:] = matrix_to_rotvec(rotvec_to_matrix(err) @ cur)
         if dist <= reach and arrived_rot:
             self._pose[3:] = target[3:]
             self._target = None

@@ -12,12 +12,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from drivers.sim.arm import KinematicArm
 from drivers.sim.fingervision_model import FingerContact
 from drivers.sim.gripper import SimGripper
 from drivers.sim.plate import BeamPlate
+from drivers.sim.transforms import homogeneous, pose_of, rigid_inverse, rotvec_to_matrix
 from perception.state import ObjectInfo
 
 GRAVITY = 9.81
@@ -37,7 +37,7 @@ class Element:
     grasp: np.ndarray | None = None  # element pose in the tool frame while held (4x4)
 
     def rotation(self) -> np.ndarray:
-        return Rotation.from_rotvec(self.pose[3:]).as_matrix()
+        return rotvec_to_matrix(self.pose[3:])
 
     def ends(self) -> tuple[np.ndarray, np.ndarray]:
         """(bottom, top) end points of the element axis, by height."""
@@ -64,17 +64,6 @@ class Plate:
         if 0.0 <= a <= self.beam.span and abs(p[1] - self.origin[1]) <= self.width / 2.0:
             return float(a)
         return None
-
-
-def _homogeneous(pose: np.ndarray) -> np.ndarray:
-    t = np.eye(4)
-    t[:3, :3] = Rotation.from_rotvec(pose[3:]).as_matrix()
-    t[:3, 3] = pose[:3]
-    return t
-
-
-def _pose(t: np.ndarray) -> np.ndarray:
-    return np.concatenate([t[:3, 3], Rotation.from_matrix(t[:3, :3]).as_rotvec()])
 
 
 @dataclass
@@ -112,11 +101,11 @@ class AssemblyScene:
 
     def _between_fingers(self) -> Element | None:
         """The element whose cross-section is between the open fingertips, if any."""
-        tool = _homogeneous(self.arm.pose())
+        tool = homogeneous(self.arm.pose())
         for e in self.elements.values():
             if e.state == "held":
                 return e
-            local = np.linalg.inv(_homogeneous(e.pose)) @ tool[:, 3]
+            local = rigid_inverse(homogeneous(e.pose)) @ tool[:, 3]
             tool_y_in_e = e.rotation().T @ tool[:3, 1]
             across = abs(tool_y_in_e[1]) > 0.9  # fingers close across the element width
             if (
@@ -133,10 +122,10 @@ class AssemblyScene:
         e = self._between_fingers()
         self.gripper.object_width = e.width if e is not None else None
         self.gripper.step(dt)
-        tool = _homogeneous(self.arm.pose())
+        tool = homogeneous(self.arm.pose())
         if e is not None and e.state != "held" and self.gripper.squeeze_force() > 0.0:
             e.state = "held"
-            e.grasp = np.linalg.inv(tool) @ _homogeneous(e.pose)
+            e.grasp = rigid_inverse(tool) @ homogeneous(e.pose)
         held = self.held()
         if held is None:
             self.arm.external_wrench = np.zeros(6)
@@ -145,7 +134,7 @@ class AssemblyScene:
         if self.gripper.squeeze_force() <= 0.0:
             self._release(held)
             return
-        held.pose = _pose(tool @ held.grasp)
+        held.pose = pose_of(tool @ held.grasp)
         self._update_slip(held, dt, tool)
 
     def _release(self, e: Element) -> None:
@@ -208,25 +197,25 @@ class AssemblyScene:
             return
         shift = np.sign(along) * min(0.05, excess / max(grip, 1e-6) * 0.02) * dt
         e.pose[:3] += axis * shift
-        e.grasp = np.linalg.inv(tool) @ _homogeneous(e.pose)
+        e.grasp = rigid_inverse(tool) @ homogeneous(e.pose)
         self._slip = min(1.0, 50.0 * abs(shift) / dt * 0.1)
         if abs(e.grasp[0, 3]) + abs(e.grasp[1, 3]) + abs(e.grasp[2, 3]) > e.length / 2.0:
             self._release(e)
 
     # ---- sensing --------------------------------------------------------------------------
-    def _view(self, e: Element, tool: np.ndarray, side: float) -> ObjectInfo:
-        """What the fingertip camera on tool-y side `side` (+1 right, -1 left) sees of `e`.
+    def _view(self, e: Element, tool: np.ndarray, side: float, local: np.ndarray) -> ObjectInfo:
+        """What the fingertip camera on tool-y side `side` (+1 right, -1 left) sees of `e`;
+        `local` is the TCP position in the element frame.
 
         The visible share of the window along the element gives the area and centroid; the
         gap between the element face and the pad scales the area (nearer looks bigger).
         """
-        local = np.linalg.inv(_homogeneous(e.pose)) @ tool[:, 3]
         r = self.config.view_half
         lo, hi = max(local[0] - r, -e.length / 2.0), min(local[0] + r, e.length / 2.0)
         overlap = max(0.0, hi - lo)
         if overlap <= 0.0:
             return ObjectInfo()
-        offset = (np.linalg.inv(tool) @ np.append(e.pose[:3], 1.0))[1]  # element centre, tool y
+        offset = (tool[:3, :3].T @ (e.pose[:3] - tool[:3, 3]))[1]  # element centre, tool y
         gap = max(0.0, self.gripper.width() / 2.0 - side * offset - e.width / 2.0)
         area = 0.35 * overlap / (2.0 * r) / (1.0 + gap / 0.01)
         centre = ((lo + hi) / 2.0 - local[0]) / (2.0 * r)  # -0.5 .. 0.5 of the image width
@@ -234,7 +223,7 @@ class AssemblyScene:
 
     def contacts(self) -> dict[str, FingerContact]:
         """Loads and views on the two fingertips for the current state."""
-        tool = _homogeneous(self.arm.pose())
+        tool = homogeneous(self.arm.pose())
         e = self._between_fingers()
         if e is None:
             self.arm.external_wrench = np.zeros(6)
@@ -249,10 +238,11 @@ class AssemblyScene:
                 force[2] -= self._rng.normal(0.0, self._load_noise(plate, top))
             self.arm.external_wrench = np.concatenate([force, np.zeros(3)])
         f_tool = tool[:3, :3].T @ force  # element pushes the fingers with the external load
+        local = rigid_inverse(homogeneous(e.pose)) @ tool[:, 3]
         out = {}
         for finger, side in (("left", -1.0), ("right", 1.0)):
             shear = 0.5 * np.array([side * f_tool[0], f_tool[2]])
-            out[finger] = FingerContact(normal, shear, 0.0, None, self._view(e, tool, side),
+            out[finger] = FingerContact(normal, shear, 0.0, None, self._view(e, tool, side, local),
                                         self._slip)
         return out
 

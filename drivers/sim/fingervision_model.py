@@ -65,23 +65,31 @@ class SensorModel:
         self._valid = np.ones(len(self.origin), bool)
         self._rng = np.random.default_rng(self.seed)
         self._centre = np.array(self.image_size, float) / 2.0
+        self._patch_key = None
+
+    def _patch(self, centre: np.ndarray):
+        """Per-marker patch weight, radial and tangential unit fields for a contact centre."""
+        key = (float(centre[0]), float(centre[1]))
+        if key != self._patch_key:
+            rel = (self.origin - centre) / self.patch_sigma
+            weight = np.exp(-(rel**2).sum(axis=1) / 2.0)[:, None]
+            self._patch_cache = (weight, weight * rel, weight * np.column_stack([-rel[:, 1], rel[:, 0]]))
+            self._patch_key = key
+        return self._patch_cache
 
     def state(self, contact: FingerContact, stamp: float) -> TactileState:
         """Render one `TactileState` from the loads on this fingertip."""
-        centre = self._centre if contact.centre is None else contact.centre
-        rel = self.origin - centre
-        weight = np.exp(-(rel**2).sum(axis=1) / (2.0 * self.patch_sigma**2))[:, None]
-        disp = weight * (self.shear_gain * np.asarray(contact.shear, float))
-        if contact.normal:
-            disp += weight * (self.normal_gain * contact.normal) * rel / self.patch_sigma
-        if contact.torque:
-            perp = np.column_stack([-rel[:, 1], rel[:, 0]]) / self.patch_sigma
-            disp += weight * (self.torque_gain * contact.torque) * perp
+        weight, radial, tangential = self._patch(self._centre if contact.centre is None else contact.centre)
         n = len(self.origin)
         noise = self._rng.normal(0.0, self.noise_px, (n, 3)) if self.noise_px else np.zeros((n, 3))
-        position = self.origin + disp + noise[:, :2]
+        position = self.origin + noise[:, :2]
+        position += weight * (self.shear_gain * np.asarray(contact.shear, float))
+        if contact.normal:
+            position += (self.normal_gain * contact.normal) * radial
+        if contact.torque:
+            position += (self.torque_gain * contact.torque) * tangential
         size = self._origin_size + self.size_gain * max(contact.normal, 0.0) * weight[:, 0]
-        size = size + 0.5 * noise[:, 2]
+        size += 0.5 * noise[:, 2]
         markers = MarkerField(self.origin, position, self._origin_size, size, self._valid,
                               self.image_size)
         force, torque = wrench(markers, self.finger, self.normal_mode)
