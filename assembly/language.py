@@ -29,7 +29,7 @@ KINDS: dict[str, dict[str, set[str]]] = {
     "timeout": {"required": {"seconds", "child"}, "optional": set()},
     "inverter": {"required": {"child"}, "optional": set()},
     "status_map": {"required": {"map", "child"}, "optional": set()},
-    "guard": {"required": {"condition", "child"}, "optional": set()},
+    "guard": {"required": {"while", "child"}, "optional": set()},
     "for_each_element": {"required": {"child"}, "optional": {"elements"}},
     "condition": {"required": {"key", "op"}, "optional": {"value"}},
     "skill": {"required": set(), "optional": {"name", "params"}},
@@ -227,11 +227,11 @@ class Validator:
         return self._children(spec, node, subs, stack, "child")
 
     def _guard(self, spec, node, subs, stack):
-        cond = node["condition"]
+        cond = node["while"]
         if not isinstance(cond, Located):
-            self.error(node, "'condition' must be a mapping {key, op, value}", spec.path, "condition")
+            self.error(node, "'while' must be a condition mapping {key, op, value}", spec.path, "while")
         else:
-            spec.args["condition"] = self._check_condition(spec, cond, subs)
+            spec.args["while"] = self._check_condition(spec, cond, subs)
         return self._children(spec, node, subs, stack, "child")
 
     def _for_each_element(self, spec, node, subs, stack):
@@ -269,11 +269,12 @@ class Validator:
                        did_you_mean(spec.type, SKILLS) or "run 'fvtree skills' to list them")
             return spec
         params = self._params(spec, node, subs)
-        for key in params:
-            if key not in cls.PARAMS:
-                self.error(node, f"unknown param {key!r} for skill {spec.type!r}", spec.path, "params",
-                           did_you_mean(key, cls.PARAMS) or f"known: {', '.join(cls.PARAMS) or 'none'}")
-        params = {k: v for k, v in params.items() if k in cls.PARAMS}
+        unknown = [key for key in params if key not in cls.PARAMS]
+        for key in unknown:
+            self.error(node, f"unknown param {key!r} for skill {spec.type!r}", spec.path, "params",
+                       did_you_mean(key, cls.PARAMS) or f"known: {', '.join(cls.PARAMS) or 'none'}")
+        if unknown:
+            return spec
         for key, value in params.items():
             try:
                 cls.PARAMS[key].check(value)
@@ -318,6 +319,7 @@ class Validator:
             return spec
         given = self._params(spec, node, subs)
         values = {}
+        before = len(self.errors)
         for key in given:
             if key not in definition.params:
                 self.error(node, f"unknown param {key!r} for subtree {ref!r}", spec.path, "params",
@@ -333,6 +335,8 @@ class Validator:
                 self.error(node, f"missing param {key!r} for subtree {ref!r}", spec.path, "subtree")
             else:
                 values[key] = decl.default
+        if len(self.errors) > before:
+            return spec  # the body would only repeat the parameter problems
         body = self.node(definition.root, spec.path, values, stack + (ref,))
         if body is not None:
             spec.children.append(body)

@@ -186,7 +186,7 @@ def build(doc: TreeDocument) -> BuiltTree:
             mapping = {_STATUS[k]: _STATUS[v] for k, v in a["map"].items()}
             node = StatusMap(spec.name, kids[0], mapping)
         elif spec.kind == "guard":
-            c = a["condition"]
+            c = a["while"]
             node = Guard(spec.name, kids[0], Condition(f"{spec.name}?", c["key"], c["op"], c["value"]))
         elif spec.kind == "for_each_element":
             node = ForEachElement(spec.name, kids[0], a.get("elements"))

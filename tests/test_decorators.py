@@ -1,0 +1,87 @@
+"""Decorators and composites of the tree language, ticked by hand on the mocked cell."""
+
+from __future__ import annotations
+
+from assembly.testing import TreeHarness
+
+LONG_MOVE = "{skill: move_to, name: go, params: {offset: [0.3, 0, 0], speed: 0.1}}"  # 3 s of motion
+
+
+def harness(root: str) -> TreeHarness:
+    return TreeHarness.from_text(f"version: 1\nname: t\ncell: {{tick_hz: 10}}\nroot:\n{root}")
+
+
+def test_timeout_runs_on_the_cell_clock_and_halts_the_child():
+    h = harness(f"  timeout: limit\n  seconds: 1.0\n  child: {LONG_MOVE}\n")
+    h.tick(10)  # t = 0.0 .. 0.9 s
+    h.assert_status({"limit": "RUNNING", "limit/go": "RUNNING"})
+    h.tick()  # t = 1.0 s
+    h.assert_status({"limit": "FAILURE", "limit/go": "INVALID"})
+    assert "timed out after 1.0 s" in h.feedback("limit")
+    assert h.arm.commands[-1].name == "stop" and h.arm.commands[-1].t == 1.0
+
+
+def test_guard_rechecks_every_tick_and_halts_the_child():
+    h = harness("  guard: while_clear\n  while: {key: /task/estop, op: eq, value: false}\n"
+                f"  child: {LONG_MOVE}\n")
+    h.tick(3)
+    h.assert_status({"while_clear": "RUNNING", "while_clear/go": "RUNNING"})
+    h.cell.estop = True  # published as /task/estop by the perception stage next tick
+    h.tick()
+    h.assert_status({"while_clear": "FAILURE", "while_clear/go": "INVALID"})
+    assert h.arm.commands[-1].name == "stop"
+
+
+def test_status_map_and_inverter():
+    failing = "{condition: never, key: /gripper/width, op: lt, value: 0.0}"
+    h = harness(f"  status_map: ok\n  map: {{failure: success}}\n  child: {failing}\n")
+    h.tick()
+    h.assert_status({"ok": "SUCCESS", "ok/never": "FAILURE"})
+    h = harness(f"  inverter: not\n  child: {failing}\n")
+    h.tick()
+    h.assert_status({"not": "SUCCESS"})
+
+
+def test_retry_fails_after_its_attempts():
+    h = harness("  retry: again\n  attempts: 3\n  child: {condition: never, key: /gripper/width, op: lt, value: 0.0}\n")
+    statuses = [h.tick().name for _ in range(3)]
+    assert statuses == ["RUNNING", "RUNNING", "FAILURE"]
+
+
+def test_repeat_succeeds_after_n_successes():
+    h = harness("  repeat: thrice\n  times: 3\n  child: {condition: open, key: /gripper/width, op: gt, value: 0.05}\n")
+    statuses = [h.tick().name for _ in range(3)]
+    assert statuses == ["RUNNING", "RUNNING", "SUCCESS"]
+
+
+def test_parallel_policies():
+    cond = "{condition: open, key: /gripper/width, op: gt, value: 0.05}"
+    h = harness(f"  parallel: both\n  policy: one\n  children:\n    - {LONG_MOVE}\n    - {cond}\n")
+    h.tick()
+    h.assert_status({"both": "SUCCESS", "both/go": "INVALID"})
+    h = harness(f"  parallel: both\n  policy: all\n  children:\n    - {LONG_MOVE}\n    - {cond}\n")
+    h.tick()
+    h.assert_status({"both": "RUNNING", "both/open": "SUCCESS"})
+    h = harness(f"  parallel: both\n  policy: selected\n  selected: [open]\n  children:\n    - {LONG_MOVE}\n    - {cond}\n")
+    h.tick()
+    h.assert_status({"both": "SUCCESS"})
+
+
+def test_memoryless_selector_gives_the_estop_guard_priority():
+    h = harness(f"  selector: main\n  memory: false\n  children:\n    - {{skill: estop_guard, name: estop}}\n"
+                f"    - {LONG_MOVE}\n")
+    h.tick(2)
+    h.assert_status({"main/estop": "FAILURE", "main/go": "RUNNING"})
+    h.cell.estop = True
+    h.tick()
+    h.assert_status({"main/estop": "RUNNING", "main/go": "INVALID"})
+    assert [c.name for c in h.arm.commands[-2:]] == ["stop", "stop"]  # terminate, then the guard
+
+
+def test_conditions_compare_nested_values():
+    h = harness("  sequence: s\n  memory: false\n  children:\n"
+                "    - {condition: high, key: '/robot/pose[2]', op: ge, value: 0.5}\n"
+                "    - {condition: calm, key: /fv/left.slip, op: le, value: 0.01}\n"
+                "    - {condition: has, key: /robot/fault, op: eq, value: null}\n")
+    h.tick()
+    h.assert_status({"s": "SUCCESS"})
