@@ -73,9 +73,9 @@ class _Recorder:
     def __getattr__(self, name):
         attr = getattr(self.inner, name)
         if name in self.COMMANDS:
-            def record(*args):
-                self.commands.append(Command(self.clock.now(), name, args))
-                return attr(*args)
+            def record(*args, **kwargs):
+                self.commands.append(Command(self.clock.now(), name, args + tuple(kwargs.values())))
+                return attr(*args, **kwargs)
             return record
         return attr
 
