@@ -59,7 +59,7 @@ class TrackerConfig:
     max_size_change: float = 1.0  # VSMax: px of diameter from the predicted size
     n_reset: int = 3  # NReset: reset a marker to its origin after more failures than this
     nonzero_range: tuple[float, float] = (0.3, 3.0)  # NonZeroMin/Max of the ROI mask fill
-    window: float = 0.0  # window tracker: half side in px; 0 = from the marker size
+    window: float = 0.0  # window tracker: half side in px; 0 = marker radius + 3
     min_contrast: float = 20.0  # window tracker: grey levels between background and marker core
     area_range: tuple[float, float] = (0.4, 2.5)  # window tracker: dark area over calibrated area
     consistency: float = 0.0  # px; flag markers whose displacement leaves their neighbours' (0 = off)

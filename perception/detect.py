@@ -84,6 +84,7 @@ class ComponentDetector:
         lab = labels[ys, xs]
         w = prep.weight[y0:y1, x0:x1][ys, xs].astype(float) + 1e-3  # never an all-zero blob
         sw = np.bincount(lab, w, minlength=n)
+        sw[0] = 1.0  # the background label has no mask pixels
         cx = np.bincount(lab, w * xs, minlength=n) / sw
         cy = np.bincount(lab, w * ys, minlength=n) / sw
         xy = np.column_stack([cx[keep] + x0, cy[keep] + y0])

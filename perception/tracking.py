@@ -7,8 +7,8 @@ the size change, count failures and reset a marker to its origin after more than
   assign  detect once on the whole frame, then a one-to-one assignment (Hungarian) of blobs to
           markers, so two markers never claim the same blob;
   window  vectorised over all markers: a darkness-weighted centroid in a small window with a local
-          threshold (robust to lighting), refined once; markers that converge on one blob are
-          flagged.
+          threshold (robust to lighting), measured again where a marker moved off the window
+          centre; markers that converge on one blob are flagged.
 An optional neighbour consistency check flags markers whose displacement leaves that of their
 neighbours (a swap or a marker caught on a dark background feature).
 """
@@ -58,16 +58,20 @@ def min_spacing(origin: np.ndarray) -> float:
 def inconsistent(displacement: np.ndarray, ok: np.ndarray, neighbours: np.ndarray,
                  tolerance: float) -> np.ndarray:
     """(N,) markers whose displacement differs from the median of their valid neighbours by > tolerance."""
-    if neighbours.shape[1] == 0:
+    k = neighbours.shape[1]
+    if k == 0:
         return np.zeros(len(ok), bool)
-    nd = displacement[neighbours]  # (N, k, 2)
-    nok = ok[neighbours]
-    nd = np.where(nok[:, :, None], nd, np.nan)
-    enough = nok.sum(axis=1) >= 2  # cannot judge a marker from fewer than two neighbours
-    med = np.zeros_like(displacement)
-    if enough.any():
-        med[enough] = np.nanmedian(nd[enough], axis=1)
-    dev = np.linalg.norm(displacement - med, axis=1)
+    nok = ok[neighbours]  # (N, k)
+    count = nok.sum(axis=1)
+    # Median over the valid neighbours only: invalid ones sort to the end as +inf.
+    nd = np.where(nok[:, :, None], displacement[neighbours], np.inf)
+    nd.sort(axis=1)
+    lo = np.clip((count - 1) // 2, 0, k - 1)[:, None, None]
+    hi = np.clip(count // 2, 0, k - 1)[:, None, None]
+    med = 0.5 * (np.take_along_axis(nd, lo, 1) + np.take_along_axis(nd, hi, 1))[:, 0, :]
+    enough = count >= 2  # cannot judge a marker from fewer than two neighbours
+    with np.errstate(invalid="ignore"):
+        dev = np.linalg.norm(displacement - med, axis=1)
     return ok & enough & (dev > tolerance)
 
 
@@ -172,45 +176,48 @@ class AssignTracker(MarkerTracker):
 
 
 class WindowTracker(MarkerTracker):
-    """Vectorised local search: darkness-weighted centroid with a per-window threshold, two passes."""
+    """Vectorised local search: darkness-weighted centroid with a per-window threshold; markers that
+    moved off their window centre are measured again around the first estimate."""
 
     def __init__(self, cfg: TrackerConfig, origin: np.ndarray, origin_size: np.ndarray):
         super().__init__(cfg, origin, origin_size)
         radius = float(np.median(origin_size)) / 2.0
-        self._outer = int(cfg.window) if cfg.window > 0 else int(np.ceil(radius + cfg.max_jump + 1))
-        self._inner = max(3, int(np.ceil(radius + 3)))
+        self._half = int(cfg.window) if cfg.window > 0 else max(3, int(np.ceil(radius + 3)))
         self._area0 = np.pi * (self.origin_size / 2.0) ** 2
         self._min_sep = 0.5 * min_spacing(self.origin)
+        self._off = np.arange(-self._half, self._half + 1, dtype=np.float32)
 
-    def _window(self, grey: np.ndarray, centre: np.ndarray, half: int):
-        """Patch statistics around integer centres: weighted centroid, size, contrast, dark area."""
+    def _window(self, grey: np.ndarray, centre: np.ndarray):
+        """Centroid, diameter, contrast and dark-pixel count in the window around each centre."""
+        half, size = self._half, 2 * self._half + 1
         h, w = grey.shape
-        if h < 2 * half + 1 or w < 2 * half + 1:
-            raise ValueError(f"image {w}x{h} is smaller than one tracking window ({2 * half + 1} px)")
+        if h < size or w < size:
+            raise ValueError(f"image {w}x{h} is smaller than one tracking window ({size} px)")
         cx = np.clip(np.rint(centre[:, 0]).astype(int), half, w - 1 - half)
         cy = np.clip(np.rint(centre[:, 1]).astype(int), half, h - 1 - half)
-        p = sliding_window_view(grey, (2 * half + 1, 2 * half + 1))[cy - half, cx - half]
-        p = p.astype(np.float32)  # (N, P, P)
+        p = sliding_window_view(grey, (size, size))[cy - half, cx - half]  # (N, P, P) float32
         ring = np.concatenate([p[:, 0, :], p[:, -1, :], p[:, 1:-1, 0], p[:, 1:-1, -1]], axis=1)
-        bg = np.median(ring, axis=1)
+        bg = np.median(ring, axis=1)  # robust to a bright or dark feature touching the window
         dark = p.min(axis=(1, 2))
-        level = 0.5 * (bg + dark)
-        below = level[:, None, None] - p
+        below = np.maximum(0.5 * (bg + dark)[:, None, None] - p, 0)  # weight: depth below half-way
         inside = below > 0
-        wgt = np.where(inside, below, 0.0)
-        total = wgt.sum(axis=(1, 2)) + 1e-6
-        off = np.arange(-half, half + 1, dtype=np.float32)
-        x = cx + (wgt.sum(axis=1) @ off) / total
-        y = cy + (wgt.sum(axis=2) @ off) / total
         count = inside.sum(axis=(1, 2))
         core = (p * inside).sum(axis=(1, 2)) / np.maximum(count, 1)
-        cover = np.clip((bg[:, None, None] - p) / np.maximum(bg - core, 1.0)[:, None, None], 0.0, 1.0)
-        area = np.where(cover > 0.15, cover, 0.0).sum(axis=(1, 2))
-        return np.column_stack([x, y]), 2.0 * np.sqrt(area / np.pi), bg - dark, count
+        cover = (bg[:, None, None] - p) / np.maximum(bg - core, 1.0)[:, None, None]
+        area = np.where(cover > 0.15, np.minimum(cover, 1.0), 0).sum(axis=(1, 2))
+        total = below.sum(axis=(1, 2)) + np.float32(1e-6)
+        xy = np.column_stack([cx + (below.sum(axis=1) @ self._off) / total,
+                              cy + (below.sum(axis=2) @ self._off) / total])
+        return xy, 2.0 * np.sqrt(area / np.pi), bg - dark, count
 
     def _measure(self, bgr, grey, pred_xy, pred_size):
-        xy, _, _, _ = self._window(grey, pred_xy, self._outer)
-        xy, size, contrast, count = self._window(grey, xy, self._inner)
+        g = grey.astype(np.float32)
+        xy, size, contrast, count = self._window(g, pred_xy)
+        moved = np.abs(xy - np.rint(pred_xy)).max(axis=1) > 1.0
+        if moved.any():  # the marker may be cut by the window edge: measure it again where it is
+            again = self._window(g, xy[moved])
+            for full, part in zip((xy, size, contrast, count), again):
+                full[moved] = part
         ratio = count / self._area0
         lo, hi = self.cfg.area_range
         ok = (contrast >= self.cfg.min_contrast) & (ratio >= lo) & (ratio <= hi)

@@ -1,0 +1,126 @@
+"""The FingerVision pipeline: one camera frame in, one `TactileState` out.
+
+frame -> checks (shape, dtype, dark, washed out, frozen) -> marker tracking -> Kalman filter ->
+force/torque -> proximity vision (object model, mask, moments) -> slip. Calibrate once on frames
+with no contact (marker map and background), or load a saved marker map.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Sequence
+
+import cv2
+import numpy as np
+
+from perception.calibration import MarkerMap, calibrate_markers
+from perception.config import FingerVisionConfig, load_config
+from perception.detect import make_detector
+from perception.frames import FrameError, ImageQuality, as_bgr
+from perception.kalman import MarkerKalman
+from perception.proximity import ProximityVision
+from perception.slip import make_motion, object_slip
+from perception.state import FINGERS, MarkerField, ObjectInfo, TactileState
+from perception.tracking import make_tracker
+from perception.wrench import wrench
+
+
+class NotCalibratedError(RuntimeError):
+    """`process` was called before `calibrate` or `use_marker_map`."""
+
+
+class FingerVision:
+    """One FingerVision sensor: calibrate, then `process(frame, stamp)` every camera frame."""
+
+    def __init__(self, config: FingerVisionConfig | str | Path = "fast", finger: str = "right"):
+        if finger not in FINGERS:
+            raise ValueError(f"unknown finger {finger!r}; expected one of {', '.join(FINGERS)}")
+        self.config = config if isinstance(config, FingerVisionConfig) else load_config(config)
+        self.finger = finger
+        self.marker_map: MarkerMap | None = None
+        self.proximity = ProximityVision(self.config.proximity)
+        self._motion = make_motion(self.config.slip) if self.config.proximity.enabled else None
+        self._quality = ImageQuality(self.config.health)
+        self._last: MarkerField | None = None
+
+    @property
+    def calibrated(self) -> bool:
+        """True once a marker map is in use."""
+        return self.marker_map is not None
+
+    def calibrate(self, frames: Sequence[np.ndarray]) -> MarkerMap:
+        """Find the marker map and the proximity background on frames with no contact and no object."""
+        marker_map = calibrate_markers(frames, self.config)
+        if self.config.proximity.enabled:
+            self.proximity.calibrate_background([as_bgr(f) for f in frames])
+        self.use_marker_map(marker_map)
+        return marker_map
+
+    def use_marker_map(self, marker_map: MarkerMap) -> None:
+        """Track against a given (e.g. loaded) marker map from now on."""
+        if len(marker_map) == 0:
+            raise ValueError("marker map is empty; recalibrate on frames that show the markers")
+        c = self.config
+        self.marker_map = marker_map
+        self._tracker = make_tracker(c.tracker, c.threshold, make_detector(c.detector),
+                                     marker_map.origin, marker_map.size)
+        self._kalman = (MarkerKalman(c.kalman, 1.0 / c.camera_fps, marker_map.origin, marker_map.size)
+                        if c.kalman.enabled else None)
+        self._quality.reset()
+        if self._motion is not None:
+            self._motion.reset()
+        self._last = MarkerField(marker_map.origin, marker_map.origin.copy(), marker_map.size,
+                                 marker_map.size.copy(), np.zeros(len(marker_map), bool),
+                                 marker_map.image_size)
+
+    def _unhealthy(self, stamp: float, reason: str) -> TactileState:
+        last = dataclasses.replace(self._last, valid=np.zeros(len(self._last), bool))
+        return TactileState(self.finger, stamp, last, healthy=False, health_reason=reason)
+
+    def process(self, frame: np.ndarray, stamp: float) -> TactileState:
+        """Tactile state of one frame; a bad or unusable frame gives an unhealthy state, not an error."""
+        if self.marker_map is None:
+            raise NotCalibratedError("call calibrate(frames) or use_marker_map(map) before process()")
+        try:
+            bgr = as_bgr(frame, self.marker_map.image_size)
+        except FrameError as exc:
+            return self._unhealthy(stamp, str(exc))
+        grey = cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY)
+        problem = self._quality.problem(grey)
+        if problem:
+            return self._unhealthy(stamp, problem)
+        track = self._tracker.step(bgr, grey)
+        position, size = track.position, track.size
+        if self._kalman is not None:
+            self._kalman.restart(track.restarted, position, size)
+            position, size = self._kalman.update(position, size, track.valid)
+        m = self.marker_map
+        markers = MarkerField(m.origin, position, m.size, size, track.valid, m.image_size)
+        self._last = markers
+        w = self.config.wrench
+        force, torque = wrench(markers, self.finger, w.normal_mode, w.averaging,
+                               np.asarray(w.force_scale), np.asarray(w.torque_scale))
+        obj, slip = self._proximity(bgr)
+        tracked = float(track.valid.mean())
+        healthy = tracked >= self.config.health.min_tracked
+        reason = "" if healthy else (f"only {tracked:.0%} of markers tracked "
+                                     f"(< {self.config.health.min_tracked:.0%}); contact occluding "
+                                     f"the skin, lighting changed, or recalibration needed")
+        return TactileState(self.finger, stamp, markers, force, torque, obj, slip, healthy, reason)
+
+    def _proximity(self, bgr: np.ndarray) -> tuple[ObjectInfo, float]:
+        if not self.config.proximity.enabled:
+            return ObjectInfo(), 0.0
+        frame = self.proximity.prepare(bgr)
+        motion = self._motion(frame) if self._motion is not None else None
+        if motion is not None:
+            self.proximity.learn(frame, motion)
+        if not self.proximity.has_model:
+            return ObjectInfo(), 0.0  # nothing to look for yet; motion models keep adapting
+        obj_mask, obj_wide = self.proximity.object_masks(frame)
+        obj = self.proximity.describe(obj_mask)
+        if motion is None:
+            return obj, 0.0
+        slip, cells = object_slip(motion, frame, obj_wide)
+        return dataclasses.replace(obj, motion_cells=cells), slip
