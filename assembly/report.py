@@ -40,8 +40,10 @@ def summarize(result: RunResult, cell, design) -> dict:
             if truth:
                 entry.update(truth)
         elements[eid] = entry
+    metrics = cell.world.metrics() if cell.simulated and hasattr(cell.world, "metrics") else {}
     return {
         "status": result.status, "message": result.message, "where": result.where,
+        "metrics": metrics,
         "ticks": result.ticks, "sim_time_s": round(result.sim_time, 3),
         "wall_time_s": round(result.wall_time, 3),
         "real_time_factor": round(result.real_time_factor, 1),
@@ -55,7 +57,8 @@ def format_summary(summary: dict) -> str:
     if summary["status"] != "SUCCESS" and summary["where"]:
         lines.append(f"  stopped at: {summary['where']}")
     placed = [e for e in summary["elements"].values() if e["status"] == "placed"]
-    lines.append(f"  elements placed: {len(placed)} of {len(summary['elements'])}")
+    if summary["elements"]:
+        lines.append(f"  elements placed: {len(placed)} of {len(summary['elements'])}")
     for eid, e in summary["elements"].items():
         if "position" in e:
             lines.append(
@@ -65,6 +68,8 @@ def format_summary(summary: dict) -> str:
                 f"regret {e['regret'] * 100:.3f} %")
         elif e["status"] == "placed":
             lines.append(f"  {eid}: placed at {e['asbuilt_pose'][:3]}, measured load {e['measured_load_px']}")
+    for name, value in summary.get("metrics", {}).items():
+        lines.append(f"  {name}: {value:.4g}" if isinstance(value, float) else f"  {name}: {value}")
     lines.append(f"  sim time {summary['sim_time_s']:.1f} s, wall time {summary['wall_time_s']:.2f} s, "
                  f"real-time factor {summary['real_time_factor']:.0f}x, {summary['ticks']} ticks")
     return "\n".join(lines)
