@@ -1,21 +1,33 @@
 """Driver-level safety, wrapped around any Arm whatever the backend and whatever a skill asks.
 
-`SafeArm` clamps targets into the workspace box, caps TCP speed, stops on excess force or any
-driver fault, and runs a watchdog that stops the arm when the tree stops ticking (`kick` not
-called) or the arm's state goes stale. A tripped SafeArm stays faulted until `reset` is called
-by a person (never automatically).
+`SafeArm` clamps (or refuses) targets outside the workspace box, caps TCP speed, stops on excess
+force or any driver fault, and runs a watchdog that stops the arm when the tree stops ticking
+(`kick` not called) or the arm's state goes stale. On real hardware the watchdog also runs in its
+own thread (`start_watchdog`), so it fires even when the tick loop itself hangs, and `kick` feeds
+the controller's own watchdog where the arm has one (the last line of defence if this process
+dies). A tripped SafeArm stays faulted until `reset` is called by a person (never automatically).
 """
 
 from __future__ import annotations
 
 import logging
+import threading
 from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from drivers.protocols import Arm, Clock
+from drivers.protocols import Arm, Clock, DriverFault
 
 log = logging.getLogger(__name__)
+WORKSPACE_POLICIES = ("clamp", "refuse")
+
+
+@runtime_checkable
+class ControllerWatchdog(Protocol):
+    """An arm whose controller stops it by itself unless it is kicked often enough."""
+
+    def kick_watchdog(self) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -28,6 +40,7 @@ class SafetyLimits:
     max_force: float = 150.0
     watchdog_timeout: float = 0.5  # s without a kick (tree tick) before the arm is stopped
     stale_after: float = 0.1  # s without fresh arm state before the arm is stopped
+    out_of_workspace: str = "clamp"  # clamp: pull targets into the box; refuse: stop and fault
 
     def __post_init__(self):
         lo = np.asarray(self.workspace_min, float)
@@ -37,6 +50,9 @@ class SafetyLimits:
         for name in ("max_speed", "max_force", "watchdog_timeout", "stale_after"):
             if getattr(self, name) <= 0:
                 raise ValueError(f"safety limit {name} must be positive")
+        if self.out_of_workspace not in WORKSPACE_POLICIES:
+            raise ValueError(f"out_of_workspace must be one of {WORKSPACE_POLICIES}, "
+                             f"got {self.out_of_workspace!r}")
         object.__setattr__(self, "workspace_min", lo)
         object.__setattr__(self, "workspace_max", hi)
 
@@ -59,6 +75,9 @@ class SafeArm:
         self._fault: str | None = None
         self._last_kick = clock.now()
         self.clamped = 0  # count of targets pulled back into the workspace (for reports)
+        self._lock = threading.RLock()  # the tick thread and the watchdog thread both supervise
+        self._watchdog: threading.Thread | None = None
+        self._watchdog_stop = threading.Event()
 
     # --- state passes through -------------------------------------------------------------
     def pose(self) -> np.ndarray:
@@ -81,17 +100,28 @@ class SafeArm:
 
     # --- guarded commands -------------------------------------------------------------------
     def move_linear(self, pose: np.ndarray, speed: float) -> None:
-        if self._refuse("move_linear"):
-            return
-        target = np.array(pose, dtype=float)
-        clipped = np.clip(target[:3], self.limits.workspace_min, self.limits.workspace_max)
-        if not np.allclose(clipped, target[:3]):
-            self.clamped += 1
-            log.warning("target %s outside the workspace, clamped to %s", target[:3], clipped)
-            target[:3] = clipped
-        self.inner.move_linear(target, min(float(speed), self.limits.max_speed))
+        with self._lock:
+            if self._refuse("move_linear"):
+                return
+            target = np.array(pose, dtype=float)
+            clipped = np.clip(target[:3], self.limits.workspace_min, self.limits.workspace_max)
+            if not np.allclose(clipped, target[:3]):
+                if self.limits.out_of_workspace == "refuse":
+                    self.trip(f"workspace: target {np.round(target[:3], 4).tolist()} is outside "
+                              f"the box {self.limits.workspace_min.tolist()} .. "
+                              f"{self.limits.workspace_max.tolist()}")
+                    return
+                self.clamped += 1
+                log.warning("target %s outside the workspace, clamped to %s", target[:3], clipped)
+                target[:3] = clipped
+            self._forward("move_linear", self.inner.move_linear, target,
+                          min(float(speed), self.limits.max_speed))
 
     def speed_linear(self, twist: np.ndarray) -> None:
+        with self._lock:
+            self._speed_linear(twist)
+
+    def _speed_linear(self, twist: np.ndarray) -> None:
         if self._refuse("speed_linear"):
             return
         v = np.array(twist, dtype=float)
@@ -103,18 +133,46 @@ class SafeArm:
         out_low = (p <= self.limits.workspace_min) & (v[:3] < 0)
         out_high = (p >= self.limits.workspace_max) & (v[:3] > 0)
         v[:3][out_low | out_high] = 0.0
-        self.inner.speed_linear(v)
+        self._forward("speed_linear", self.inner.speed_linear, v)
 
     def stop(self) -> None:
-        self.inner.stop()
+        with self._lock:
+            self.inner.stop()
 
     # --- supervision, called once per tick by the cell ---------------------------------------
     def kick(self) -> None:
-        """The tree ticked: feed the watchdog."""
+        """The tree ticked: feed the watchdog, and the controller's own one if the arm has it."""
         self._last_kick = self.clock.now()
+        if not self._fault and isinstance(self.inner, ControllerWatchdog):
+            self.inner.kick_watchdog()
+
+    def start_watchdog(self, period: float = 0.01) -> None:
+        """Also supervise every `period` s from a daemon thread (real cells: wall clock only), so
+        the arm stops even when the tick loop hangs and nobody calls `supervise`."""
+        if self._watchdog is not None:
+            return
+        self._watchdog_stop.clear()
+
+        def watch() -> None:
+            while not self._watchdog_stop.wait(period):
+                self.supervise()
+
+        self._watchdog = threading.Thread(target=watch, name="safety-watchdog", daemon=True)
+        self._watchdog.start()
+
+    def stop_watchdog(self) -> None:
+        """End the watchdog thread (at cell close)."""
+        self._watchdog_stop.set()
+        if self._watchdog is not None:
+            self._watchdog.join(timeout=1.0)
+            self._watchdog = None
 
     def supervise(self) -> str | None:
         """Check force, faults, watchdog and data age; stop and latch a fault on any breach."""
+        with self._lock:
+            return self._supervise()
+
+    def _supervise(self) -> str | None:
         if self._fault:
             return self._fault
         now = self.clock.now()
@@ -134,14 +192,24 @@ class SafeArm:
 
     def trip(self, reason: str) -> None:
         """Stop the arm and latch `reason` as the fault."""
-        self.inner.stop()
-        self._fault = reason
-        log.error("safety stop: %s", reason)
+        with self._lock:
+            self._fault = reason  # first: no command may slip in while the arm stops
+            log.error("safety stop: %s", reason)
+            self.inner.stop()
 
     def reset(self) -> None:
         """Clear a latched fault; for a person who has checked the cell, never automatic."""
-        self._fault = None
-        self._last_kick = self.clock.now()
+        with self._lock:
+            self._fault = None
+            self._last_kick = self.clock.now()
+
+    def _forward(self, what: str, command, *args) -> None:
+        """Pass a command on; a driver that raises DriverFault trips the safety stop instead of
+        crashing the tick."""
+        try:
+            command(*args)
+        except DriverFault as exc:
+            self.trip(f"driver fault during {what}: {exc}")
 
     def _refuse(self, what: str) -> bool:
         if self._fault:

@@ -130,8 +130,7 @@ class UrArm:
         self._last_timestamp = self._snapshot["timestamp"]
         self._last_fresh = time.monotonic()
         self._stamp = clock.now()
-        if config.watchdog_hz > 0:
-            self._call("setWatchdog", self._control.setWatchdog, config.watchdog_hz)
+        self._watchdog_armed = False  # armed by the first kick, i.e. when the tree starts ticking
         self._running = True
         self._monitor = threading.Thread(target=self._watch, name=f"ur-monitor-{host}", daemon=True)
         self._monitor.start()
@@ -176,18 +175,39 @@ class UrArm:
         self._command("servoL", "servo", self._control.servoL, _vec(pose), 0.0, 0.0,
                       1.0 / self.control_rate, self.config.servo_lookahead, self.config.servo_gain)
 
+    def stream_servo(self, target_at: Callable[[float], np.ndarray], duration: float) -> list[float]:
+        """Stream servoL targets `target_at(t)` at the controller rate for `duration` s (deadline
+        paced, no catch-up bursts), then servoStop; returns each command's latency in s."""
+        period = 1.0 / self.control_rate
+        latencies: list[float] = []
+        start = time.perf_counter()
+        next_at = start
+        while (t := time.perf_counter() - start) < duration:
+            sent = time.perf_counter()
+            self.servo_linear(target_at(t))
+            latencies.append(time.perf_counter() - sent)
+            next_at += period
+            delay = next_at - time.perf_counter()
+            if delay > 0:
+                time.sleep(delay)
+            elif delay < -period:
+                next_at = time.perf_counter()  # overran a whole period: do not burst to catch up
+        self.stop()
+        return latencies
+
     def move_until_contact(self, twist: np.ndarray, timeout: float) -> None:
         """Move at `twist` until the tool touches something (then back to the first contact
         point); fault if no contact within `timeout` s. Poll `is_moving()`."""
         with self._lock:
             self._prepare("moveUntilContact")
             relaxed = 1.0 / (timeout + 1.0)  # the controller watchdog must outlast the blocking call
+            armed = self._watchdog_armed
 
             def job() -> bool:
-                if self.config.watchdog_hz > 0:
+                if armed:
                     self._control.setWatchdog(relaxed)
                 ok = self._control.moveUntilContact(_vec(twist))
-                if ok and self.config.watchdog_hz > 0:
+                if ok and armed:
                     self._control.setWatchdog(self.config.watchdog_hz)
                 return ok
 
@@ -213,11 +233,16 @@ class UrArm:
                 self._latch(str(exc))
 
     def kick_watchdog(self) -> None:
-        """Feed the controller's RTDE watchdog; the cell calls this once per tree tick."""
+        """Feed the controller's RTDE watchdog once per tree tick; the first kick arms it, so the
+        controller stops the program whenever the ticks stop for longer than 1 / watchdog_hz."""
         with self._lock:
-            if self._fault or self._mode == "contact" or self._restart_script:
+            if (self._fault or self._mode == "contact" or self._restart_script
+                    or self.config.watchdog_hz <= 0):
                 return
             try:
+                if not self._watchdog_armed:
+                    self._call("setWatchdog", self._control.setWatchdog, self.config.watchdog_hz)
+                    self._watchdog_armed = True
                 self._call("kickWatchdog", self._control.kickWatchdog)
             except DriverFault as exc:
                 self._latch(str(exc))
@@ -261,8 +286,7 @@ class UrArm:
             raise DriverFault(f"{what} refused: moveUntilContact still running; call stop() first")
         if self._restart_script:
             self._call("reuploadScript", self._control.reuploadScript)
-            if self.config.watchdog_hz > 0:
-                self._call("setWatchdog", self._control.setWatchdog, self.config.watchdog_hz)
+            self._watchdog_armed = False  # a new script starts without a watchdog
             self._restart_script = False
 
     def _call(self, what: str, fn: Callable[..., Any], *args, timeout: float | None = None) -> Any:

@@ -1,0 +1,82 @@
+"""Fixtures for driver tests: emulator subprocesses on distinct loopback addresses, always killed."""
+
+from __future__ import annotations
+
+import itertools
+import time
+
+import pytest
+
+from drivers.clock import WallClock
+from drivers.emulators import backdoor
+from drivers.emulators.launch import EmulatorProcess
+
+_hosts = itertools.count(10)
+
+
+def next_host() -> str:
+    """A fresh 127.0.5.x address per emulator (the UR ports are fixed, so addresses must differ)."""
+    return f"127.0.5.{next(_hosts)}"
+
+
+class Emulator:
+    """A running emulator: its address and its back door."""
+
+    def __init__(self, process: EmulatorProcess, host: str, backdoor_port: int):
+        self.process, self.host, self.backdoor_port = process, host, backdoor_port
+
+    def call(self, line: str) -> dict:
+        reply = backdoor.call(self.host, self.backdoor_port, line)
+        assert reply.get("ok"), reply
+        return reply
+
+    def state(self) -> dict:
+        return self.call("state")
+
+
+@pytest.fixture
+def start_ur():
+    """Factory: start a UR controller emulator with extra CLI args; stopped after the test."""
+    started: list[EmulatorProcess] = []
+
+    def start(*args: str) -> Emulator:
+        host = next_host()
+        proc = EmulatorProcess("drivers.emulators.ur", ["--host", host, *args]).start()
+        started.append(proc)
+        return Emulator(proc, host, 30999)
+
+    yield start
+    for proc in started:
+        proc.stop()
+
+
+@pytest.fixture
+def start_robotiq():
+    """Factory: start a Robotiq emulator (framer tcp or rtu) with extra CLI args."""
+    started: list[EmulatorProcess] = []
+
+    def start(framer: str = "tcp", *args: str) -> Emulator:
+        host = next_host()
+        proc = EmulatorProcess("drivers.emulators.robotiq",
+                               ["--host", host, "--port", "5020", "--framer", framer, *args]).start()
+        started.append(proc)
+        return Emulator(proc, host, 30998)
+
+    yield start
+    for proc in started:
+        proc.stop()
+
+
+@pytest.fixture
+def clock() -> WallClock:
+    return WallClock(1 / 30)
+
+
+def wait_until(predicate, timeout: float, step: float = 0.005) -> bool:
+    """Poll `predicate` until it holds or `timeout` s pass; returns whether it held."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(step)
+    return bool(predicate())
