@@ -99,6 +99,7 @@ class Runner:
         self.profiles: dict[str, dict] = {}
         self._profile = None
         self.tip_path = ""
+        self._previous_tip = ""  # the tip before the last change: where an e-stop interrupted
         self.estop_file = run_dir / "ESTOP" if run_dir else None
         self.estop_at: float | None = None
         self.setup()
@@ -138,10 +139,12 @@ class Runner:
             self.profiles[element] = profile
         if changes:
             tip = self.tree.root.tip()
-            self.tip_path = self.tree.path_of(tip) if tip is not None else self.tip_path
-            if self.progress:
-                element = Blackboard.storage.get(keys.ELEMENT, {}) or {}
-                self.progress(f"t={now:7.2f}s  {element.get('id', '-'):>4}  {self.tip_path}")
+            path = self.tree.path_of(tip) if tip is not None else self.tip_path
+            if path != self.tip_path:
+                self._previous_tip, self.tip_path = self.tip_path, path
+                if self.progress:
+                    element = Blackboard.storage.get(keys.ELEMENT, {}) or {}
+                    self.progress(f"t={now:7.2f}s  {element.get('id', '-'):>4}  {path}")
 
     # ---- the loop --------------------------------------------------------------------------
     def run(self, max_time: float = 3600.0) -> RunResult:
@@ -153,8 +156,10 @@ class Runner:
                 status = self.tick()
                 if self.cell.estop or (self.estop_file and self.ticks % 8 == 0 and self.estop_file.exists()):
                     self.cell.estop = True
+                    interrupted = self._previous_tip
                     self.halt()
-                    return self._result("ESTOP", start, "e-stop requested")
+                    self.tip_path = interrupted
+                    return self._result("ESTOP", start, f"e-stop requested during {interrupted}")
                 if self.cell.clock.now() > max_time:
                     self.halt()
                     return self._result("TIMEOUT", start, f"no result within {max_time} s of cell time")

@@ -1,0 +1,134 @@
+"""The flagship assembly on the simulated cell: result, as-built data, logs, e-stop, resume,
+Ctrl-C and crash-safe writes."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from assembly import design as design_module
+from assembly.cli import main
+from assembly.design import DesignModel, atomic_write_json
+from assembly.loader import build, load_tree
+from assembly.runner import Runner
+from assembly.session import run_tree
+from drivers.cell import load_cell
+
+TREES = Path(__file__).resolve().parents[1] / "trees"
+ASSEMBLY = str(TREES / "assembly.yaml")
+
+
+def lines(path: Path) -> list[dict]:
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+@pytest.fixture(scope="module")
+def full_run(tmp_path_factory):
+    return run_tree(ASSEMBLY, runs_dir=tmp_path_factory.mktemp("runs"), quiet=True)
+
+
+def test_assembly_places_every_element_at_its_maximum_load(full_run):
+    assert full_run["status"] == "SUCCESS"
+    for eid, e in full_run["elements"].items():
+        assert e["status"] == "placed", eid
+        assert e["regret"] < 0.01, f"{eid}: force regret {e['regret']:.2%}"
+        assert abs(e["position"] - e["true_best_position"]) < 0.03
+
+
+def test_run_directory_holds_the_as_built_model_and_logs(full_run):
+    run_dir = Path(full_run["run_dir"])
+    asbuilt = DesignModel.load(run_dir / "asbuilt.json")
+    for eid in ("E1", "E2"):
+        node = asbuilt.graph.nodes[eid]
+        assert node["status"] == "placed" and len(node["asbuilt_pose"]) == 6 and node["measured_load"] > 0
+    events = [e["event"] for e in lines(run_dir / "events.jsonl")]
+    assert events == ["start", "placed", "placed", "end"]
+    transitions = lines(run_dir / "transitions.jsonl")
+    assert transitions[0]["tick"] == 0 and {"t", "node", "from", "to", "feedback"} <= set(transitions[0])
+    assert transitions[-1]["node"] == "main" and transitions[-1]["to"] == "SUCCESS"
+    assert (run_dir / "load_profiles.png").stat().st_size > 10_000
+    assert json.loads((run_dir / "summary.json").read_text())["status"] == "SUCCESS"
+
+
+def test_simulated_runs_are_deterministic(full_run, tmp_path):
+    again = run_tree(ASSEMBLY, runs_dir=tmp_path, quiet=True, plots=False)
+    assert again["ticks"] == full_run["ticks"]
+    for eid in ("E1", "E2"):
+        assert again["elements"][eid]["position"] == full_run["elements"][eid]["position"]
+
+
+def test_estop_halts_then_resume_skips_placed_elements(tmp_path):
+    first = run_tree(ASSEMBLY, runs_dir=tmp_path, estop_at=100.0, quiet=True, plots=False)
+    assert first["status"] == "ESTOP"
+    assert "/build/prop/" in first["where"]
+    assert first["elements"]["E1"]["status"] == "placed"
+    assert first["elements"]["E2"]["status"] == "planned"
+    run_dir = Path(first["run_dir"])
+    assert lines(run_dir / "events.jsonl")[-2]["event"] == "halted"
+
+    second = run_tree(ASSEMBLY, runs_dir=tmp_path, resume="latest", quiet=True, plots=False)
+    assert second["status"] == "SUCCESS" and second["run_dir"] == first["run_dir"]
+    placed = [e["element"] for e in lines(run_dir / "events.jsonl") if e["event"] == "placed"]
+    assert placed == ["E1", "E2"]  # E1 was not built twice
+    assert second["elements"]["E2"]["regret"] < 0.01
+
+
+def test_ctrl_c_halts_every_running_skill_and_stops_the_arm(tmp_path):
+    doc = load_tree(ASSEMBLY)
+    cell = load_cell("sim", doc.tick_hz, doc.scene, doc.design.scene_args())
+    runner = Runner(build(doc), cell, tmp_path)
+    sense = cell.sense
+
+    def interrupt_at_tick_400():
+        if runner.ticks == 400:
+            raise KeyboardInterrupt
+        return sense()
+
+    runner.sense = interrupt_at_tick_400
+    result = runner.run()
+    assert result.status == "HALTED" and result.where.endswith("/scan")
+    assert not cell.arm.is_moving()
+    assert all(node.status.name == "INVALID" for node in runner.tree.nodes.values())
+    assert lines(tmp_path / "transitions.jsonl")[-1]["to"] == "INVALID"
+
+
+def test_interrupted_write_keeps_the_previous_as_built_model(tmp_path, monkeypatch):
+    path = tmp_path / "asbuilt.json"
+    atomic_write_json(path, {"nodes": [1]})
+
+    def crash(*args, **kwargs):
+        raise KeyboardInterrupt  # the process is stopped in the middle of writing
+
+    monkeypatch.setattr(design_module.json, "dump", crash)
+    with pytest.raises(KeyboardInterrupt):
+        atomic_write_json(path, {"nodes": [1, 2]})
+    assert json.loads(path.read_text()) == {"nodes": [1]}
+    assert [p.name for p in tmp_path.iterdir()] == ["asbuilt.json"]  # no temp file left
+
+
+def test_build_order_follows_the_precedence_edges():
+    data = json.loads((TREES / "design" / "two_bays.json").read_text())
+    assert DesignModel(design_module.nx.node_link_graph(data, edges="edges")).build_order() == ["E1", "E2"]
+    data["edges"] = [{"source": "E2", "target": "E1"}]
+    assert DesignModel(design_module.nx.node_link_graph(data, edges="edges")).build_order() == ["E2", "E1"]
+
+
+def test_bad_cell_file_names_file_line_and_field(tmp_path, capsys):
+    cell = tmp_path / "cell.yaml"
+    cell.write_text("kind: sim\nsafety:\n  max_sped: 0.2\n")
+    assert main(["run", ASSEMBLY, "--cell", str(cell), "--runs-dir", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert f"{cell}:2: safety:" in err and "max_sped" in err and "Traceback" not in err
+
+
+def test_safety_layer_clamps_a_target_outside_the_workspace():
+    doc = load_tree(text="version: 1\nname: t\nroot: {skill: move_to, name: far, params: {pose: [2.0, 0, 0.5, 3.14159, 0, 0]}}\n",
+                    name="far.yaml")
+    cell = load_cell("sim", 30, "assembly", {})
+    result = Runner(build(doc), cell).run(max_time=30)
+    assert result.status == "SUCCESS"
+    assert cell.arm.pose()[0] == pytest.approx(0.9) and cell.arm.clamped == 1
+    assert np.all(cell.arm.pose()[:3] <= cell.arm.limits.workspace_max)
