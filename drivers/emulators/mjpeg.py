@@ -1,0 +1,110 @@
+"""An MJPEG-over-HTTP camera emulator (multipart/x-mixed-replace, like IP cameras and
+mjpg-streamer): synthetic frames whose top-left pixel row encodes the frame number.
+
+    python -m drivers.emulators.mjpeg --host 127.0.0.4 --port 8080 [--fps 30]
+        [--size 320x240] [--drop-after N]
+
+The stream is at http://HOST:PORT/stream.mjpg. `--drop-after N` closes every connection after N
+frames (a flaky camera; the driver must reopen). Prints `ready` once it listens.
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+import time
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+
+import cv2
+import numpy as np
+
+BOUNDARY = "fvtreeframe"
+
+
+def synthetic_frame(index: int, size: tuple[int, int]) -> np.ndarray:
+    """A BGR test image: a moving bar, and the frame number in the first pixel row (low byte)."""
+    w, h = size
+    img = np.full((h, w, 3), 40, np.uint8)
+    x = (index * 4) % w
+    img[:, x:x + 8] = (0, 200, 255)
+    img[0, :] = index % 256
+    return img
+
+
+class MjpegServer:
+    """A threaded HTTP server streaming synthetic MJPEG frames; usable in-process or via main()."""
+
+    def __init__(self, host: str, port: int, fps: float = 30.0, size: tuple[int, int] = (320, 240),
+                 drop_after: int | None = None):
+        self.fps, self.size, self.drop_after = fps, size, drop_after
+        self.connections = 0
+        server = self
+
+        class Handler(BaseHTTPRequestHandler):
+            def do_GET(self):  # noqa: N802 (http.server's naming)
+                if self.path != "/stream.mjpg":
+                    self.send_error(404, "the stream is at /stream.mjpg")
+                    return
+                server.connections += 1
+                self.send_response(200)
+                self.send_header("Content-Type", f"multipart/x-mixed-replace; boundary={BOUNDARY}")
+                self.end_headers()
+                server.stream(self.wfile)
+
+            def log_message(self, *args):
+                pass
+
+        self.httpd = ThreadingHTTPServer((host, port), Handler)
+        self.httpd.daemon_threads = True
+        self.url = f"http://{host}:{self.httpd.server_address[1]}/stream.mjpg"
+
+    def stream(self, out) -> None:
+        """Write frames at `fps` until the client leaves (or `drop_after` frames were sent)."""
+        index, next_at = 0, time.monotonic()
+        try:
+            while self.drop_after is None or index < self.drop_after:
+                ok, jpg = cv2.imencode(".jpg", synthetic_frame(index, self.size),
+                                       [cv2.IMWRITE_JPEG_QUALITY, 90])
+                out.write(f"--{BOUNDARY}\r\nContent-Type: image/jpeg\r\n"
+                          f"Content-Length: {len(jpg)}\r\n\r\n".encode() + jpg.tobytes() + b"\r\n")
+                out.flush()
+                index += 1
+                next_at += 1.0 / self.fps
+                time.sleep(max(0.0, next_at - time.monotonic()))
+        except (BrokenPipeError, ConnectionResetError):
+            pass
+
+    def start(self) -> "MjpegServer":
+        threading.Thread(target=self.httpd.serve_forever, name="mjpeg", daemon=True).start()
+        return self
+
+    def close(self) -> None:
+        self.httpd.shutdown()
+        self.httpd.server_close()
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="python -m drivers.emulators.mjpeg", description=__doc__.split("\n\n")[0])
+    p.add_argument("--host", default="127.0.0.4", help="loopback address to bind")
+    p.add_argument("--port", type=int, default=8080)
+    p.add_argument("--fps", type=float, default=30.0)
+    p.add_argument("--size", default="320x240", help="WIDTHxHEIGHT")
+    p.add_argument("--drop-after", type=int, default=None, help="close connections after N frames")
+    args = p.parse_args(argv)
+    if not args.host.startswith("127."):
+        p.error("the emulator binds loopback addresses only (127.0.0.0/8)")
+    w, h = (int(v) for v in args.size.lower().split("x"))
+    server = MjpegServer(args.host, args.port, args.fps, (w, h), args.drop_after).start()
+    stop = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    print("ready", flush=True)
+    stop.wait()
+    server.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
