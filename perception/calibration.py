@@ -103,10 +103,29 @@ def calibrate_markers(frames: Sequence[np.ndarray], config: FingerVisionConfig) 
         raise CalibrationError(
             f"found {len(blobs)} markers in the first calibration frame; point the sensor at a plain "
             f"bright surface, check the lighting, or tune threshold (mode {config.threshold.mode!r})")
-    # Track with the size gate opened: the tracker may measure size slightly differently from the
-    # detector; stability is judged on the tracker's own measurements below.
+    xy, diameter = blobs.xy, blobs.size
+    for _ in range(3):  # re-track the survivors so a dropped blob cannot disturb its neighbours
+        keep, origin, diameter = _stable(images, greys, xy, diameter, config)
+        xy, origin, diameter = xy[keep], origin[keep], diameter[keep]
+        if keep.all() or not keep.any():
+            break
+    keep = _drop_duplicates(origin, diameter, config.detector.min_dist_between)
+    origin, diameter = origin[keep], diameter[keep]
+    if len(origin) < MIN_MARKERS:
+        raise CalibrationError(
+            f"only {len(origin)} of {len(blobs)} markers stayed still over {len(images)} frames; "
+            f"calibrate with no contact and a steady camera (limits: {cal.max_drift} px, "
+            f"{cal.max_size_drift} px size)")
+    return MarkerMap(origin.copy(), diameter.copy(), size)
+
+
+def _stable(images, greys, xy, diameter, config: FingerVisionConfig):
+    """Track candidate markers over the frames: (stable mask, origins, diameters) per candidate."""
+    cal = config.calibration
+    # The size gate is opened: the tracker may measure size slightly differently from the
+    # detector; stability is judged on the tracker's own measurements.
     loose = dataclasses.replace(config.tracker, max_size_change=np.inf, consistency=0.0)
-    tracker = make_tracker(loose, config.threshold, make_detector(config.detector), blobs.xy, blobs.size)
+    tracker = make_tracker(loose, config.threshold, make_detector(config.detector), xy, diameter)
     tracks = [tracker.step(f, g) for f, g in zip(images, greys)]
     pos = np.stack([t.position for t in tracks])  # (F, N, 2)
     sizes = np.stack([t.size for t in tracks])  # (F, N)
@@ -118,10 +137,4 @@ def calibrate_markers(frames: Sequence[np.ndarray], config: FingerVisionConfig) 
     if keep.any():
         typical = np.median(diameter[keep])
         keep &= (diameter > 0.5 * typical) & (diameter < 2.0 * typical)
-    keep[keep] = _drop_duplicates(origin[keep], diameter[keep], config.detector.min_dist_between)
-    if keep.sum() < MIN_MARKERS:
-        raise CalibrationError(
-            f"only {int(keep.sum())} of {len(blobs)} markers stayed still over {len(images)} frames; "
-            f"calibrate with no contact and a steady camera (limits: {cal.max_drift} px, "
-            f"{cal.max_size_drift} px size)")
-    return MarkerMap(origin[keep].copy(), diameter[keep].copy(), size)
+    return keep, origin, diameter

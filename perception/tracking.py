@@ -186,6 +186,9 @@ class WindowTracker(MarkerTracker):
         self._area0 = np.pi * (self.origin_size / 2.0) ** 2
         self._min_sep = 0.5 * min_spacing(self.origin)
         self._off = np.arange(-self._half, self._half + 1, dtype=np.float32)
+        # Size is measured inside a disc a little larger than a marker, so that darker background
+        # at the window edge does not count as marker area.
+        self._disc = np.hypot(self._off[:, None], self._off[None, :]) <= radius + 2.0
 
     def _window(self, grey: np.ndarray, centre: np.ndarray):
         """Centroid, diameter, contrast and dark-pixel count in the window around each centre."""
@@ -204,7 +207,7 @@ class WindowTracker(MarkerTracker):
         count = inside.sum(axis=(1, 2))
         core = (p * inside).sum(axis=(1, 2)) / np.maximum(count, 1)
         cover = (bg[:, None, None] - p) / np.maximum(bg - core, 1.0)[:, None, None]
-        area = np.where(cover > 0.15, np.minimum(cover, 1.0), 0).sum(axis=(1, 2))
+        area = np.where((cover > 0.15) & self._disc, np.minimum(cover, 1.0), 0).sum(axis=(1, 2))
         total = below.sum(axis=(1, 2)) + np.float32(1e-6)
         xy = np.column_stack([cx + (below.sum(axis=1) @ self._off) / total,
                               cy + (below.sum(axis=2) @ self._off) / total])
