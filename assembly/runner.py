@@ -25,7 +25,6 @@ from assembly.design import DesignBridge
 from assembly.loader import BuiltTree
 from behaviours import keys
 from drivers.cell import Cell
-from perception.state import FINGERS
 
 
 @dataclass
@@ -63,19 +62,25 @@ class TransitionLog:
 
 
 def publish_perception(cell: Cell, states: dict | None = None) -> None:
-    """The perception stage: write this tick's tactile, robot and gripper state."""
+    """The perception stage: write this tick's tactile, robot and gripper state.
+
+    It is the only writer of these keys, so it stores them directly (py_trees' checked
+    `Blackboard.set` would cost more than the rest of the stage); skills read them through
+    clients registered with READ access.
+    """
     states = cell.sense() if states is None else states
-    bb = Blackboard
-    for finger in FINGERS:
-        bb.set(f"/fv/{finger}", states[finger])
     arm, gripper = cell.arm, cell.gripper
-    bb.set(keys.ROBOT_POSE, arm.pose())
-    bb.set(keys.ROBOT_WRENCH, arm.tcp_wrench())
-    bb.set(keys.ROBOT_FAULT, arm.fault())
-    bb.set(keys.GRIPPER_WIDTH, gripper.width())
-    bb.set(keys.GRIPPER_OBJECT, gripper.object_detected())
-    bb.set(keys.GRIPPER_FAULT, gripper.fault())
-    bb.set(keys.ESTOP, cell.estop)
+    Blackboard.storage.update({
+        keys.FV_LEFT: states["left"],
+        keys.FV_RIGHT: states["right"],
+        keys.ROBOT_POSE: arm.pose(),
+        keys.ROBOT_WRENCH: arm.tcp_wrench(),
+        keys.ROBOT_FAULT: arm.fault(),
+        keys.GRIPPER_WIDTH: gripper.width(),
+        keys.GRIPPER_OBJECT: gripper.object_detected(),
+        keys.GRIPPER_FAULT: gripper.fault(),
+        keys.ESTOP: cell.estop,
+    })
 
 
 class Runner:

@@ -35,9 +35,19 @@ class Element:
     pose: np.ndarray  # centre pose [x, y, z, rx, ry, rz]
     state: str = "lying"  # lying | held | standing | dropped
     grasp: np.ndarray | None = None  # element pose in the tool frame while held (4x4)
+    _inverse: np.ndarray | None = field(default=None, repr=False)
+    _inverse_key: bytes = field(default=b"", repr=False)
 
     def rotation(self) -> np.ndarray:
         return rotvec_to_matrix(self.pose[3:])
+
+    def inverse(self) -> np.ndarray:
+        """Base-to-element transform, cached while the element does not move."""
+        key = self.pose.tobytes()
+        if self._inverse_key != key:
+            self._inverse = rigid_inverse(homogeneous(self.pose))
+            self._inverse_key = key
+        return self._inverse
 
     def ends(self) -> tuple[np.ndarray, np.ndarray]:
         """(bottom, top) end points of the element axis, by height."""
@@ -91,6 +101,7 @@ class AssemblyScene:
         self._loads: dict[str, float] = {}  # element id -> true load it carries now (N)
         self._slip = 0.0
         self._noise_scale: dict[str, float] = {}  # plate id -> load noise std (N)
+        self._settle(homogeneous(self.arm.pose()))
 
     # ----------------------------------------------------------------------------------
     def held(self) -> Element | None:
@@ -99,13 +110,12 @@ class AssemblyScene:
                 return e
         return None
 
-    def _between_fingers(self) -> Element | None:
+    def _between_fingers(self, tool: np.ndarray) -> Element | None:
         """The element whose cross-section is between the open fingertips, if any."""
-        tool = homogeneous(self.arm.pose())
         for e in self.elements.values():
             if e.state == "held":
                 return e
-            local = rigid_inverse(homogeneous(e.pose)) @ tool[:, 3]
+            local = e.inverse() @ tool[:, 3]
             tool_y_in_e = e.rotation().T @ tool[:3, 1]
             across = abs(tool_y_in_e[1]) > 0.9  # fingers close across the element width
             if (
@@ -119,23 +129,37 @@ class AssemblyScene:
 
     def step(self, dt: float) -> None:
         self.arm.step(dt)
-        e = self._between_fingers()
+        tool = homogeneous(self.arm.pose())
+        e = self._between_fingers(tool)
         self.gripper.object_width = e.width if e is not None else None
         self.gripper.step(dt)
-        tool = homogeneous(self.arm.pose())
         if e is not None and e.state != "held" and self.gripper.squeeze_force() > 0.0:
             e.state = "held"
             e.grasp = rigid_inverse(tool) @ homogeneous(e.pose)
         held = self.held()
-        if held is None:
-            self.arm.external_wrench = np.zeros(6)
-            self._slip = 0.0
-            return
-        if self.gripper.squeeze_force() <= 0.0:
+        if held is not None and self.gripper.squeeze_force() <= 0.0:
             self._release(held)
-            return
-        held.pose = pose_of(tool @ held.grasp)
-        self._update_slip(held, dt, tool)
+        elif held is not None:
+            held.pose = pose_of(tool @ held.grasp)
+            self._update_slip(held, dt, tool)
+        else:
+            self._slip = 0.0
+        self._settle(tool)
+
+    def _settle(self, tool: np.ndarray) -> None:
+        """After a step: what is between the fingers and the (noisy) load the grip carries."""
+        self._tool = tool
+        self._near = self._between_fingers(tool)
+        force = np.zeros(3)
+        if self._near is not None and self._near.state == "held":
+            e = self._near
+            force = self.external_force(e)
+            top = e.ends()[1]
+            plate = self.plate_above(top) if e.is_upright() else None
+            if plate is not None and self.config.force_noise:
+                force[2] -= self._rng.normal(0.0, self._load_noise(plate, top))
+        self._force = force
+        self.arm.external_wrench = np.concatenate([force, np.zeros(3)])
 
     def _release(self, e: Element) -> None:
         bottom, _ = e.ends()
@@ -146,7 +170,6 @@ class AssemblyScene:
         else:
             e.pose = np.array([e.pose[0], e.pose[1], e.depth / 2.0, 0.0, 0.0, 0.0])
         e.grasp = None
-        self.arm.external_wrench = np.zeros(6)
         self._slip = 0.3  # the object moves in the fingers as it goes
 
     # ---- loads ---------------------------------------------------------------------------
@@ -223,22 +246,12 @@ class AssemblyScene:
 
     def contacts(self) -> dict[str, FingerContact]:
         """Loads and views on the two fingertips for the current state."""
-        tool = homogeneous(self.arm.pose())
-        e = self._between_fingers()
+        tool, e = self._tool, self._near
         if e is None:
-            self.arm.external_wrench = np.zeros(6)
             return {"left": FingerContact(), "right": FingerContact()}
         normal = self.gripper.squeeze_force()
-        force = np.zeros(3)
-        if e.state == "held":
-            force = self.external_force(e)
-            top = e.ends()[1]
-            plate = self.plate_above(top) if e.is_upright() else None
-            if plate is not None and self.config.force_noise:
-                force[2] -= self._rng.normal(0.0, self._load_noise(plate, top))
-            self.arm.external_wrench = np.concatenate([force, np.zeros(3)])
-        f_tool = tool[:3, :3].T @ force  # element pushes the fingers with the external load
-        local = rigid_inverse(homogeneous(e.pose)) @ tool[:, 3]
+        f_tool = tool[:3, :3].T @ self._force  # element pushes the fingers with the external load
+        local = e.inverse() @ tool[:, 3]
         out = {}
         for finger, side in (("left", -1.0), ("right", 1.0)):
             shear = 0.5 * np.array([side * f_tool[0], f_tool[2]])

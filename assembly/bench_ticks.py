@@ -1,0 +1,144 @@
+"""`fvtree bench ticks`: what one tick of the assembly costs, and the simulated real-time factor.
+
+Runs trees/assembly.yaml on the simulated cell several times and times every tick's parts
+(perception stage, tree tick, transition log, cell step) and each behaviour's own `update`.
+Writes ticks.csv, ticks.md and ticks.png. Targets: tree tick under 0.5 ms median (room for a
+500 Hz robot loop) and the whole simulated assembly at least 100x faster than real time.
+"""
+
+from __future__ import annotations
+
+import csv
+import statistics
+import time
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+from assembly.loader import build, load_tree
+from assembly.runner import Runner, clear_blackboard, publish_perception
+from drivers.cell import load_cell
+
+TREE = Path(__file__).resolve().parents[1] / "trees" / "assembly.yaml"
+
+
+class TimedRunner(Runner):
+    """A Runner that records how long each part of every tick takes (seconds)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.parts: dict[str, list[float]] = defaultdict(list)
+        self.behaviour_times: dict[str, list[float]] = defaultdict(list)
+        for path, node in self.tree.nodes.items():
+            if not node.children:  # leaves: skills and conditions
+                node.update = self._timed(node.update, path)
+
+    def _timed(self, update, path):
+        clock, sink = time.perf_counter, self.behaviour_times[path]
+
+        def timed():
+            t0 = clock()
+            status = update()
+            sink.append(clock() - t0)
+            return status
+        return timed
+
+    def tick(self):
+        clock = time.perf_counter
+        t0 = clock()
+        publish_perception(self.cell, self.sense())
+        t1 = clock()
+        self.tree.root.tick_once()
+        self.cell.arm.kick()
+        t2 = clock()
+        self._record(self.cell.clock.now())
+        t3 = clock()
+        self.ticks += 1
+        self.cell.step()
+        t4 = clock()
+        for name, dt in (("perception stage", t1 - t0), ("tree tick", t2 - t1),
+                         ("transition log", t3 - t2), ("cell step", t4 - t3), ("whole tick", t4 - t0)):
+            self.parts[name].append(dt)
+        return self.tree.root.status
+
+
+def _one_run(run_dir: Path | None, timed: bool):
+    """One full assembly on a fresh tree and design (a run marks the design's elements placed)."""
+    doc = load_tree(TREE)
+    clear_blackboard()
+    cell = load_cell("sim", doc.tick_hz, doc.scene, doc.design.scene_args())
+    cls = TimedRunner if timed else Runner
+    runner = cls(build(doc), cell, run_dir)
+    result = runner.run()
+    if result.status != "SUCCESS":
+        raise RuntimeError(f"benchmark run ended {result.status}: {result.message}")
+    return doc, runner, result
+
+
+def run(out_dir: Path, quick: bool = False) -> list[Path]:
+    repeats = 1 if quick else 5
+    factors = []
+    for _ in range(repeats):  # untimed runs for the real-time factor (no instrumentation overhead)
+        _, _, result = _one_run(None, timed=False)
+        factors.append(result.real_time_factor)
+    doc, timed, _ = _one_run(None, timed=True)
+
+    us = 1e6
+    rows = []
+    for name, values in timed.parts.items():
+        v = np.array(values) * us
+        rows.append(("stage", name, len(v), float(np.median(v)), float(np.percentile(v, 95)), float(v.max())))
+    called = {p: v for p, v in timed.behaviour_times.items() if v}
+    for path, values in sorted(called.items(), key=lambda kv: -np.median(kv[1])):
+        v = np.array(values) * us
+        rows.append(("behaviour", path.split("/")[-1], len(v), float(np.median(v)),
+                     float(np.percentile(v, 95)), float(v.max())))
+    out_dir.mkdir(parents=True, exist_ok=True)
+    csv_path = out_dir / "ticks.csv"
+    with open(csv_path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["group", "name", "calls", "median_us", "p95_us", "max_us"])
+        w.writerows((g, n, c, f"{m:.1f}", f"{p:.1f}", f"{x:.1f}") for g, n, c, m, p, x in rows)
+
+    tree_median = statistics.median(timed.parts["tree tick"]) * 1e3
+    rtf = statistics.median(factors)
+    md_path = out_dir / "ticks.md"
+    md = [
+        "# Tick cost of trees/assembly.yaml on the simulated cell",
+        "",
+        f"- tree tick median: **{tree_median:.3f} ms** (target < 0.5 ms)",
+        f"- simulated assembly real-time factor, median of {repeats} runs: **{rtf:.0f}x** "
+        f"(target >= 100x; runs: {', '.join(f'{x:.0f}' for x in factors)})",
+        f"- ticks per run: {timed.ticks} at {doc.tick_hz:g} Hz",
+        "",
+        "| group | name | calls | median µs | p95 µs | max µs |",
+        "|---|---|---:|---:|---:|---:|",
+        *[f"| {g} | {n} | {c} | {m:.1f} | {p:.1f} | {x:.1f} |" for g, n, c, m, p, x in rows],
+        "",
+    ]
+    md_path.write_text("\n".join(md))
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (left, right) = plt.subplots(1, 2, figsize=(12, 4.5))
+    stage = [r for r in rows if r[0] == "stage" and r[1] != "whole tick"]
+    left.bar([r[1] for r in stage], [r[3] for r in stage], color="C0", label="median")
+    left.bar([r[1] for r in stage], [r[4] - r[3] for r in stage], bottom=[r[3] for r in stage],
+             color="C0", alpha=0.3, label="to p95")
+    left.set_ylabel("µs per tick")
+    left.set_title(f"tick parts (tree tick median {tree_median * 1000:.0f} µs; RTF {rtf:.0f}x)")
+    left.legend()
+    beh = [r for r in rows if r[0] == "behaviour"]
+    right.barh([r[1] for r in beh][::-1], [r[3] for r in beh][::-1], color="C1")
+    right.set_xlabel("median µs per update")
+    right.set_title("per behaviour (own update only)")
+    fig.tight_layout()
+    png_path = out_dir / "ticks.png"
+    fig.savefig(png_path, dpi=110)
+    plt.close(fig)
+    print("\n".join(md[2:5]))
+    return [csv_path, md_path, png_path]
