@@ -77,6 +77,7 @@ class SafeArm:
         self.clamped = 0  # count of targets pulled back into the workspace (for reports)
         self._lock = threading.RLock()  # the tick thread and the watchdog thread both supervise
         self._watchdog: threading.Thread | None = None
+        self._watchdog_period: float | None = None  # set by start_watchdog
         self._watchdog_stop = threading.Event()
 
     # --- state passes through -------------------------------------------------------------
@@ -143,14 +144,18 @@ class SafeArm:
     def kick(self) -> None:
         """The tree ticked: feed the watchdog, and the controller's own one if the arm has it."""
         self._last_kick = self.clock.now()
+        if self._watchdog_period is not None and self._watchdog is None:
+            self._start_watchdog_thread(self._watchdog_period)
         if not self._fault and isinstance(self.inner, ControllerWatchdog):
             self.inner.kick_watchdog()
 
     def start_watchdog(self, period: float = 0.01) -> None:
-        """Also supervise every `period` s from a daemon thread (real cells: wall clock only), so
-        the arm stops even when the tick loop hangs and nobody calls `supervise`."""
-        if self._watchdog is not None:
-            return
+        """From the first `kick` on (the tree started ticking), also supervise every `period` s
+        from a daemon thread, so the arm stops even when the tick loop hangs and nobody calls
+        `supervise`. For wall-clock cells only: a simulated clock does not move by itself."""
+        self._watchdog_period = period
+
+    def _start_watchdog_thread(self, period: float) -> None:
         self._watchdog_stop.clear()
 
         def watch() -> None:
@@ -162,6 +167,7 @@ class SafeArm:
 
     def stop_watchdog(self) -> None:
         """End the watchdog thread (at cell close)."""
+        self._watchdog_period = None
         self._watchdog_stop.set()
         if self._watchdog is not None:
             self._watchdog.join(timeout=1.0)

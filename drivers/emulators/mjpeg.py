@@ -2,10 +2,12 @@
 mjpg-streamer): synthetic frames whose top-left pixel row encodes the frame number.
 
     python -m drivers.emulators.mjpeg --host 127.0.0.4 --port 8080 [--fps 30]
-        [--size 320x240] [--drop-after N]
+        [--size 320x240] [--pattern bars|fingervision] [--drop-after N]
 
-The stream is at http://HOST:PORT/stream.mjpg. `--drop-after N` closes every connection after N
-frames (a flaky camera; the driver must reopen). Prints `ready` once it listens.
+The stream is at http://HOST:PORT/stream.mjpg. `--pattern fingervision` streams rendered
+FingerVision frames (markers at rest, no contact) that the perception pipeline can calibrate on.
+`--drop-after N` closes every connection after N frames (a flaky camera; the driver must reopen).
+Prints `ready` once it listens.
 """
 
 from __future__ import annotations
@@ -33,12 +35,22 @@ def synthetic_frame(index: int, size: tuple[int, int]) -> np.ndarray:
     return img
 
 
+def fingervision_renderer(size: tuple[int, int], seed: int = 0):
+    """Frames of a FingerVision sensor at rest, from the simulator's renderer."""
+    from drivers.sim.camera import SyntheticFingerVision
+    from drivers.sim.fingervision_model import radial_marker_layout
+
+    camera = SyntheticFingerVision(radial_marker_layout(size), 9.0, size, seed=seed)
+    return lambda index, _size: camera.render().image
+
+
 class MjpegServer:
     """A threaded HTTP server streaming synthetic MJPEG frames; usable in-process or via main()."""
 
     def __init__(self, host: str, port: int, fps: float = 30.0, size: tuple[int, int] = (320, 240),
-                 drop_after: int | None = None):
+                 drop_after: int | None = None, pattern: str = "bars"):
         self.fps, self.size, self.drop_after = fps, size, drop_after
+        self.render = fingervision_renderer(size) if pattern == "fingervision" else synthetic_frame
         self.connections = 0
         server = self
 
@@ -65,7 +77,7 @@ class MjpegServer:
         index, next_at = 0, time.monotonic()
         try:
             while self.drop_after is None or index < self.drop_after:
-                ok, jpg = cv2.imencode(".jpg", synthetic_frame(index, self.size),
+                ok, jpg = cv2.imencode(".jpg", self.render(index, self.size),
                                        [cv2.IMWRITE_JPEG_QUALITY, 90])
                 out.write(f"--{BOUNDARY}\r\nContent-Type: image/jpeg\r\n"
                           f"Content-Length: {len(jpg)}\r\n\r\n".encode() + jpg.tobytes() + b"\r\n")
@@ -91,12 +103,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--port", type=int, default=8080)
     p.add_argument("--fps", type=float, default=30.0)
     p.add_argument("--size", default="320x240", help="WIDTHxHEIGHT")
+    p.add_argument("--pattern", choices=["bars", "fingervision"], default="bars")
     p.add_argument("--drop-after", type=int, default=None, help="close connections after N frames")
     args = p.parse_args(argv)
     if not args.host.startswith("127."):
         p.error("the emulator binds loopback addresses only (127.0.0.0/8)")
     w, h = (int(v) for v in args.size.lower().split("x"))
-    server = MjpegServer(args.host, args.port, args.fps, (w, h), args.drop_after).start()
+    server = MjpegServer(args.host, args.port, args.fps, (w, h), args.drop_after, args.pattern).start()
     stop = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
     signal.signal(signal.SIGINT, lambda *_: stop.set())

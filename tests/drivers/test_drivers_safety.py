@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pytest
 from conftest import wait_until
@@ -133,6 +135,8 @@ def test_watchdog_thread_stops_the_arm_when_the_tick_loop_hangs():
     safe, arm, _ = make(clock=clock, watchdog_timeout=0.1)
     safe.start_watchdog(period=0.005)
     try:
+        time.sleep(0.15)  # the cell is built but the tree has not started: nothing may trip yet
+        assert safe.fault() is None
         safe.speed_linear(np.array([0.02, 0, 0, 0, 0, 0]))
         safe.kick()
         hung_at = clock.now()  # no more ticks, no supervise() calls from the loop
