@@ -128,7 +128,7 @@ class SlipConfig:
     shadows: bool = True
     learning_rate: float = 1.0 / 30.0
     flow_preset: Literal["ultrafast", "fast", "medium"] = "ultrafast"
-    min_speed: float = 0.5  # flow: px per frame at 320x240 counted as motion
+    min_speed: float = 1.0  # flow: px per frame at 320x240 counted as motion
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,7 @@ from perception.config import ProximityConfig
 from perception.state import ObjectInfo
 
 _KERNEL = np.ones((3, 3), np.uint8)
-_RANGES = [0, 180, 0, 256, 0, 256]
+_RANGES = (180, 256, 256)  # H, S, V value ranges of an 8-bit OpenCV HSV image
 
 
 @dataclass(frozen=True)
@@ -29,6 +29,7 @@ class ProxFrame:
     bgr: np.ndarray
     hsv: np.ndarray
     not_black: np.ndarray  # uint8 255 where V > thresh_blk_v (markers and dark areas are excluded)
+    bins: np.ndarray  # int, flat index of each pixel's H x S x V histogram bin
 
 
 def cell_means(mask: np.ndarray) -> np.ndarray:
@@ -43,7 +44,11 @@ class ProximityVision:
 
     def __init__(self, cfg: ProximityConfig):
         self.cfg = cfg
-        self._bins = list(cfg.bins)
+        # Per-channel lookup tables value -> bin; histograms and back-projection share them. (Done in
+        # numpy: cv2.calcBackProject reads a 3-D numpy histogram as a 2-D multi-channel image.)
+        self._luts = [np.minimum(np.arange(256) * n // r, n - 1).astype(np.uint16)
+                      for n, r in zip(cfg.bins, _RANGES)]
+        self._n_bins = int(np.prod(cfg.bins))
         self.background: np.ndarray | None = None
         self._models: deque[np.ndarray] = deque(maxlen=cfg.n_models)
         self._models.append(self._zero())
@@ -53,8 +58,11 @@ class ProximityVision:
     def _zero(self) -> np.ndarray:
         return np.zeros(self.cfg.bins, np.float32)
 
-    def _hist(self, hsv: np.ndarray, mask: np.ndarray | None) -> np.ndarray:
-        return cv2.calcHist([hsv], [0, 1, 2], mask, self._bins, _RANGES)
+    def _hist(self, frame: ProxFrame, mask: np.ndarray | None) -> np.ndarray:
+        """Un-normalised H x S x V histogram of the pixels where `mask` is nonzero (all if None)."""
+        bins = frame.bins if mask is None else frame.bins[mask > 0]
+        counts = np.bincount(bins.ravel(), minlength=self._n_bins)
+        return counts.reshape(self.cfg.bins).astype(np.float32)
 
     def prepare(self, bgr: np.ndarray) -> ProxFrame:
         """Resize (nearest, as the original) and convert one frame."""
@@ -62,14 +70,18 @@ class ProximityVision:
         small = bgr if (bgr.shape[1], bgr.shape[0]) == size else cv2.resize(
             bgr, size, interpolation=cv2.INTER_NEAREST)
         hsv = cv2.cvtColor(small, cv2.COLOR_BGR2HSV)
-        _, not_black = cv2.threshold(hsv[:, :, 2], self.cfg.thresh_blk_v, 255, cv2.THRESH_BINARY)
-        return ProxFrame(small, hsv, not_black)
+        h, s, v = cv2.split(hsv)
+        _, not_black = cv2.threshold(v, self.cfg.thresh_blk_v, 255, cv2.THRESH_BINARY)
+        lh, ls, lv = self._luts
+        n_s, n_v = self.cfg.bins[1], self.cfg.bins[2]
+        bins = (lh[h] * n_s + ls[s]) * n_v + lv[v]
+        return ProxFrame(small, hsv, not_black, bins)
 
     def calibrate_background(self, frames: Sequence[np.ndarray]) -> None:
         """Background histogram: the mean over up to `n_bg_frames` frames with no object."""
         if not frames:
             raise ValueError("background calibration needs at least one frame with no object")
-        hists = [self._hist(self.prepare(f).hsv, None) for f in frames[: self.cfg.n_bg_frames]]
+        hists = [self._hist(self.prepare(f), None) for f in frames[: self.cfg.n_bg_frames]]
         self.background = np.mean(hists, axis=0).astype(np.float32)
 
     @property
@@ -98,7 +110,7 @@ class ProximityVision:
         small = cv2.resize(np.asarray(mask, np.uint8), (self.cfg.width, self.cfg.height),
                            interpolation=cv2.INTER_NEAREST)
         small = cv2.bitwise_and((small > 0).view(np.uint8) * np.uint8(255), frame.not_black)
-        added = gain * self._hist(frame.hsv, small)
+        added = gain * self._hist(frame, small)
         for i, model in enumerate(self._models):
             self._models[i] = np.minimum(model + added, 255.0).astype(np.float32)
 
@@ -111,15 +123,14 @@ class ProximityVision:
             self._models.appendleft(self._zero())  # newest first; the deque drops the oldest
         self._frames += 1
         moving = cv2.bitwise_and(motion, frame.not_black)
-        gain = self.cfg.f_gain * np.maximum(self._hist(frame.hsv, moving) - self.cfg.f_bg * self.background, 0)
+        gain = self.cfg.f_gain * np.maximum(self._hist(frame, moving) - self.cfg.f_bg * self.background, 0)
         for i, model in enumerate(self._models):
             self._models[i] = np.minimum(model + gain, 255.0).astype(np.float32)
 
     def object_masks(self, frame: ProxFrame) -> tuple[np.ndarray, np.ndarray]:
         """(object mask, dilated object mask) from back-projecting the oldest (tracking) model."""
-        model = self._models[-1]
-        back = cv2.calcBackProject([frame.hsv], [0, 1, 2], model, _RANGES, self.cfg.backproj_scale)
-        back = cv2.bitwise_and(back, frame.not_black)
+        lut = np.minimum(self._models[-1].ravel() * self.cfg.backproj_scale, 255).astype(np.uint8)
+        back = cv2.bitwise_and(lut[frame.bins], frame.not_black)
         # The original keeps values (TOZERO); erosion, dilation and binary moments only see the
         # support, so a binary mask gives the same result and ANDs cleanly with motion masks.
         _, back = cv2.threshold(back, self.cfg.mask_threshold, 255, cv2.THRESH_BINARY)

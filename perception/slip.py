@@ -38,11 +38,15 @@ class Mog2Motion:
 
 
 class FlowMotion:
-    """Pixels whose DIS optical-flow speed since the last frame exceeds `min_speed` (px at 320x240)."""
+    """Pixels whose DIS optical-flow speed since the last frame exceeds `min_speed` (px at 320x240).
+
+    The static black markers would pin the patch-based flow to zero, so they are first removed
+    with a grey closing a little larger than a marker (11 px at 320x240)."""
 
     def __init__(self, cfg: SlipConfig):
         self.cfg = cfg
         self._dis = cv2.DISOpticalFlow.create(_DIS_PRESETS[cfg.flow_preset])
+        self._kernel: np.ndarray | None = None
         self.reset()
 
     def reset(self) -> None:
@@ -50,12 +54,15 @@ class FlowMotion:
         self._prev: np.ndarray | None = None
 
     def __call__(self, frame: ProxFrame) -> np.ndarray:
-        grey = cv2.cvtColor(frame.bgr, cv2.COLOR_BGR2GRAY)
+        scale = frame.bgr.shape[1] / 320.0  # sizes and speeds are given at the original 320x240
+        if self._kernel is None:
+            side = 2 * int(np.ceil(5.5 * scale)) + 1
+            self._kernel = np.ones((side, side), np.uint8)
+        grey = cv2.morphologyEx(cv2.cvtColor(frame.bgr, cv2.COLOR_BGR2GRAY), cv2.MORPH_CLOSE, self._kernel)
         prev, self._prev = self._prev, grey
         if prev is None or prev.shape != grey.shape:
             return np.zeros_like(grey)
         flow = self._dis.calc(prev, grey, None)
-        scale = grey.shape[1] / 320.0  # min_speed is given at the original 320x240
         speed2 = flow[:, :, 0] ** 2 + flow[:, :, 1] ** 2
         return (speed2 > (self.cfg.min_speed * scale) ** 2).view(np.uint8) * np.uint8(255)
 
