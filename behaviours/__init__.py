@@ -11,6 +11,7 @@ from behaviours import (  # noqa: F401  (importing registers the skills)
     place_element,
     rotate_element,
     vis_scan,
+    hold,
 )
 from behaviours.base import Param, ProgramSkill, Skill
 from behaviours.registry import SKILLS, lookup, register

@@ -60,3 +60,13 @@ class MovingAverage:
     def update(self, value) -> np.ndarray:
         self._buf.append(np.asarray(value, dtype=float))
         return np.mean(self._buf, axis=0)
+
+
+def speed_ctrl(force: np.ndarray, v_min: float, v_max: float, f_min: float, f_max: float,
+               eps: float) -> np.ndarray:
+    """SpeedCtrl per axis: |f| in [f_min, f_max] maps linearly onto speeds [v_min, v_max]
+    (alpha = speed_ctrl_gain), along the sign of f; axes with |f| <= eps stay still."""
+    f = np.asarray(force, dtype=float)
+    alpha = speed_ctrl_gain(v_min, v_max, f_min, f_max)
+    speed = np.clip(v_min + alpha * (np.abs(f) - f_min), v_min, v_max)
+    return np.where(np.abs(f) > eps, np.sign(f) * speed, 0.0)

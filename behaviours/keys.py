@@ -38,3 +38,10 @@ TASK_KEYS = {
     ELEMENT: "design entry of the element being built (id, size, pick_pose, plate, ...)",
     PLATES: "plate geometry from the design model, by id",
 }
+
+# Tactile skill library (Table I): results skills leave for the rest of the tree.
+OBJECT_ANGLE = "/task/object_angle"
+ARM_ROTATION = "/task/arm_rotation"
+PRESS_FORCE = "/task/press_force"
+SUBSTANCE = "/task/substance"
+STIR_TRIAL = "/task/stir_trial"

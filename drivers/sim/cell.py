@@ -14,6 +14,7 @@ from drivers.sim.arm import KinematicArm
 from drivers.sim.assembly_scene import AssemblyScene, Element, Plate, SceneConfig
 from drivers.sim.fingervision_model import SensorModel
 from drivers.sim.gripper import SimGripper
+from drivers.sim import hold_scene  # tactile-skill scenes (issue 4)
 from drivers.sim.plate import BeamPlate
 from perception.state import FINGERS
 
@@ -49,7 +50,10 @@ def build_assembly_scene(arm, gripper, args: dict, world: dict, seed: int) -> As
     return AssemblyScene(arm, gripper, elements, plates, config)
 
 
-SCENES: dict[str, Callable[..., object]] = {"assembly": build_assembly_scene}
+SCENES: dict[str, Callable[..., object]] = {
+    "assembly": build_assembly_scene,
+    "hold": hold_scene.build,
+}
 
 
 def register_scene(name: str, builder: Callable[..., object]) -> None:

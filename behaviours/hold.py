@@ -1,0 +1,48 @@
+"""Hold: keep a grasped object from slipping out by closing the gripper one step whenever the
+slip summed over both fingers exceeds a threshold (the original fv.hold rule)."""
+
+from __future__ import annotations
+
+from py_trees.common import Status
+
+from behaviours import keys
+from behaviours.base import Param
+from behaviours.gripper_skill import GripperProgramSkill
+from behaviours.hand import object_area, total_slip
+from behaviours.registry import register
+
+
+@register
+class Hold(GripperProgramSkill):
+    NAME = "hold"
+    SUMMARY = "keep a grasped object: close one step whenever slip exceeds a threshold"
+    PARAMS = {
+        "slip": Param("float", "slip (both fingers) that triggers a tightening step", 0.06, min=0.0),
+        "step": Param("float", "gripper closing step per trigger", 0.0005, "m", min=1e-5, max=0.005),
+        "force": Param("float", "gripper force limit while tightening", 40.0, "N", min=0.0),
+        "duration": Param("float", "hold this long, then succeed; 0 holds until halted", 5.0, "s", min=0.0),
+        "min_width": Param("float", "width at which tightening gives up", 0.002, "m", min=0.0),
+    }
+    READS = (keys.FV_LEFT, keys.FV_RIGHT)
+
+    def program(self):
+        gripper = self.cell.gripper
+        start, steps = self.now(), 0
+        if object_area(*self.tactile()) <= 0.0:
+            return self.fail("nothing between the fingers to hold: grasp the object first")
+        while self.p.duration == 0.0 or self.now() - start < self.p.duration:
+            left, right = self.tactile()
+            if object_area(left, right) <= 0.0:
+                return self.fail(f"the object left the grip after {steps} tightening steps: "
+                                 "raise 'force', or lower 'slip' to react sooner")
+            slip = total_slip(left, right)
+            if slip > self.p.slip:
+                width = gripper.width() - self.p.step
+                if width < self.p.min_width:
+                    return self.fail(f"closed to {gripper.width() * 1000:.1f} mm and the object still slips")
+                gripper.move(width, self.p.step / self.cell.clock.period, self.p.force)
+                steps += 1
+            self.feedback_message = f"holding, slip {slip:.3f}, {steps} tightening steps"
+            yield
+        self.feedback_message = f"held for {self.p.duration:.1f} s with {steps} tightening steps"
+        return Status.SUCCESS

@@ -1,0 +1,78 @@
+"""The hold scene: a box stands between the open fingers; once grasped and lifted off its stand
+it hangs in the grip, and a second after the lift someone starts loading it (sand poured in),
+so the grip that held the empty box starts to slip unless it is tightened."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from drivers.sim.arm import KinematicArm
+from drivers.sim.grip import Grip, empty_contacts, pad_contacts, pad_view, slip_signal, tool_rotation
+from drivers.sim.gripper import SimGripper
+
+GRAVITY = 9.81
+
+
+@dataclass
+class HoldScene:
+    arm: KinematicArm
+    gripper: SimGripper
+    mass: float = 0.5  # kg, the empty box
+    width: float = 0.04  # m across the fingers
+    extra_load: float = 15.0  # N added once lifted
+    load_start: float = 1.0  # s after the lift
+    load_ramp: float = 4.0  # s to reach the full extra load
+    finger_reach: float = 0.02  # m the box may slide before it leaves the pads
+    view_half: float = 0.015  # m, half the camera window along the pad
+    grip: Grip = field(default_factory=Grip)
+
+    def __post_init__(self):
+        self._start = self.arm.pose()[:3]
+        self._lifted_at: float | None = None
+        self._t = 0.0
+        self.dropped = False
+        self._load = np.zeros(3)
+
+    def _weight(self) -> float:
+        if self._lifted_at is None:
+            return 0.0  # the stand carries the box
+        ramp = np.clip((self._t - self._lifted_at - self.load_start) / self.load_ramp, 0.0, 1.0)
+        return self.mass * GRAVITY + ramp * self.extra_load
+
+    def step(self, dt: float) -> None:
+        self.arm.step(dt)
+        self.gripper.object_width = None if self.dropped else self.width
+        self.gripper.step(dt)
+        self._t += dt
+        if self.dropped:
+            return
+        squeeze = self.gripper.squeeze_force()
+        if self._lifted_at is None and squeeze > 0.0 and self.arm.pose()[2] - self._start[2] > 0.002:
+            self._lifted_at = self._t
+        self._load = tool_rotation(self.arm).T @ np.array([0.0, 0.0, -self._weight()])
+        self.grip.step(self._load[[0, 2]], 2.0 * squeeze, dt)
+        if np.hypot(*self.grip.slid) > self.finger_reach:
+            self.dropped = True
+
+    def contacts(self):
+        if self.dropped:
+            return empty_contacts()
+        squeeze = self.gripper.squeeze_force()
+        offset = self.grip.offset(self._load[[0, 2]]) / (2 * self.view_half)
+        view = {s: pad_view(s, 0.3, offset) for s in (-1.0, 1.0)}
+        slip = slip_signal(self.grip.speed, 0.3, self.arm.clock.period)
+        return pad_contacts((squeeze, squeeze), self._load, 0.0, (view[-1.0], view[1.0]), slip)
+
+    def metrics(self) -> dict:
+        return {"box slid (mm)": round(float(np.hypot(*self.grip.slid)) * 1000, 2),
+                "box dropped": self.dropped,
+                "load on the grip (N)": round(self._weight(), 2),
+                "grip force (N)": round(self.gripper.squeeze_force(), 2)}
+
+
+def build(arm, gripper, args: dict, world: dict, seed: int) -> HoldScene:
+    """Scene args: mass (kg), extra_load (N)."""
+    return HoldScene(arm, gripper, mass=args.get("mass", 0.5), extra_load=args.get("extra_load", 15.0),
+                     grip=Grip(friction=world.get("friction", 0.8)))
