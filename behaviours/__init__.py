@@ -12,6 +12,8 @@ from behaviours import (  # noqa: F401  (importing registers the skills)
     rotate_element,
     vis_scan,
     hold,
+    force_track,
+    object_track,
 )
 from behaviours.base import Param, ProgramSkill, Skill
 from behaviours.registry import SKILLS, lookup, register

@@ -1,0 +1,147 @@
+"""The FollowMe scene: a person holds a block between the open fingers; a second after the
+robot has grasped it, the person leads it along one tool axis (pull: +axis, push: -axis) on a
+minimum-jerk path and holds it there. The person's arm is a spring (stiffness `hand_stiffness`,
+force capped at `max_force`) pulling the block towards the scripted path; the block reaches the
+hand through the gel (elastic shear, then sliding beyond friction) and, along the closing axis,
+through the pads' normal stiffness. The cameras see the block shift along the pads (centroid,
+with noise) but not along the closing axis: the pads touch it, so the view does not change.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from drivers.sim.arm import KinematicArm
+from drivers.sim.grip import Grip, empty_contacts, pad_contacts, pad_view, slip_signal, tool_rotation
+from drivers.sim.gripper import SimGripper
+
+AXES = "xyz"
+
+
+def min_jerk(s: float) -> float:
+    """Minimum-jerk profile 0 -> 1 for s in [0, 1]."""
+    s = min(max(s, 0.0), 1.0)
+    return s * s * s * (10.0 - 15.0 * s + 6.0 * s * s)
+
+
+@dataclass
+class FollowMeScene:
+    arm: KinematicArm
+    gripper: SimGripper
+    axis: str = "x"
+    direction: str = "pull"
+    distance: float = 0.12  # m the person leads the block
+    move_time: float = 4.0  # s
+    start_delay: float = 1.0  # s after the grasp
+    width: float = 0.04  # m block width across the fingers
+    hand_stiffness: float = 300.0  # N/m, the person's arm
+    max_force: float = 25.0  # N a person is willing to push or pull with
+    area: float = 0.3  # share of each camera image the block covers
+    view_half: float = 0.015  # m, half the camera window along the pads
+    pad_reach: float = 0.02  # m the block may slide along the pads before it leaves them
+    vision_noise: float = 0.01  # std of the centroid, image fraction
+    seed: int = 0
+    grip: Grip = field(default_factory=Grip)
+
+    def __post_init__(self):
+        if self.axis not in AXES or self.direction not in ("pull", "push"):
+            raise ValueError(f"followme needs axis in x/y/z and direction pull/push, got "
+                             f"{self.axis!r}, {self.direction!r}")
+        self._rng = np.random.default_rng(self.seed)
+        self._tcp0 = self.arm.pose()[:3]
+        self._rot0 = tool_rotation(self.arm)
+        sign = 1.0 if self.direction == "pull" else -1.0
+        self._lead = self._rot0[:, AXES.index(self.axis)] * sign * self.distance  # base frame
+        self._t = 0.0
+        self._grasped_at: float | None = None
+        self.lost = False
+        self._force = np.zeros(3)  # person's force on the block, tool frame
+        self._offset = np.zeros(2)  # block relative to the grasp, tool x and z
+        self._seen_speed = 0.0
+        self._errors: list[float] = []
+        self._velocities: list[np.ndarray] = []
+        self._peak_force = 0.0
+
+    def hand_target(self) -> np.ndarray:
+        """Where the person's hand wants the block (base frame)."""
+        if self._grasped_at is None:
+            return self._tcp0
+        return self._tcp0 + self._lead * min_jerk((self._t - self._grasped_at - self.start_delay) / self.move_time)
+
+    def step(self, dt: float) -> None:
+        self.arm.step(dt)
+        self.gripper.object_width = None if self.lost else self.width
+        self.gripper.step(dt)
+        self._t += dt
+        squeeze = self.gripper.squeeze_force()
+        if self._grasped_at is None and squeeze > 0.0:
+            self._grasped_at = self._t
+        if self._grasped_at is None or self.lost:
+            return
+        rot = tool_rotation(self.arm)
+        tcp = self.arm.pose()[:3]
+        ahead = rot.T @ (self.hand_target() - tcp)  # tool frame
+        # Along the pads the person's spring and the gel shear act in series, on top of sliding.
+        tangential = self.hand_stiffness * (ahead[[0, 2]] - self.grip.slid)
+        tangential /= 1.0 + self.hand_stiffness / self.grip.shear_stiffness
+        # Along the closing axis the pads are far stiffer than the person: the block stays put.
+        force = np.array([tangential[0], self.hand_stiffness * ahead[1], tangential[1]])
+        magnitude = float(np.linalg.norm(force))
+        if magnitude > self.max_force:
+            force *= self.max_force / magnitude
+        self._force = force
+        self.grip.step(force[[0, 2]], 2.0 * squeeze, dt)
+        offset = self.grip.offset(force[[0, 2]])
+        self._seen_speed = float(np.hypot(*(offset - self._offset))) / dt
+        self._offset = offset
+        if np.max(np.abs(offset)) > self.pad_reach:
+            self.lost = True
+        self._record(tcp, dt)
+
+    def _record(self, tcp: np.ndarray, dt: float) -> None:
+        if self._t - self._grasped_at < self.start_delay:
+            return
+        self._errors.append(float(np.linalg.norm((tcp - self._tcp0) - (self.hand_target() - self._tcp0))))
+        self._velocities.append(self.arm.tcp_speed()[:3])
+        self._peak_force = max(self._peak_force, float(np.linalg.norm(self._force)))
+
+    def normals(self) -> tuple[float, float]:
+        """(left, right) pad loads: the squeeze, shifted by the person's push along tool y."""
+        squeeze = self.gripper.squeeze_force()
+        return squeeze - 0.5 * self._force[1], squeeze + 0.5 * self._force[1]
+
+    def contacts(self):
+        if self.lost:
+            return empty_contacts()
+        if self._grasped_at is None:
+            return self._open_contacts()
+        centroid = self._offset / (2 * self.view_half) + self._rng.normal(0.0, self.vision_noise, 2)
+        views = (pad_view(-1.0, self.area, centroid), pad_view(1.0, self.area, centroid))
+        slip = slip_signal(self._seen_speed, self.area, self.arm.clock.period)
+        return pad_contacts(self.normals(), self._force, 0.0, views, slip)
+
+    def _open_contacts(self):
+        """Before the grasp: the block is seen between the open fingers, nothing touches."""
+        views = (pad_view(-1.0, self.area, (0.0, 0.0)), pad_view(1.0, self.area, (0.0, 0.0)))
+        return pad_contacts((0.0, 0.0), np.zeros(3), 0.0, views)
+
+    def metrics(self) -> dict:
+        if not self._errors:
+            return {"person led the block": False}
+        v = np.array(self._velocities)
+        dt = self.arm.clock.period
+        jerk = np.diff(v, n=2, axis=0) / dt**2 if len(v) > 2 else np.zeros((1, 3))
+        return {"tracking error rms (mm)": round(float(np.sqrt(np.mean(np.square(self._errors)))) * 1000, 2),
+                "tracking error final (mm)": round(self._errors[-1] * 1000, 2),
+                "command jerk rms (m/s^3)": round(float(np.sqrt(np.mean(np.sum(jerk**2, axis=1)))), 3),
+                "peak force on the block (N)": round(self._peak_force, 2),
+                "block lost": self.lost}
+
+
+def build(arm, gripper, args: dict, world: dict, seed: int) -> FollowMeScene:
+    """Scene args: axis (x|y|z, tool axes), direction (pull|push), distance (m), move_time (s)."""
+    return FollowMeScene(arm, gripper, axis=args.get("axis", "x"), direction=args.get("direction", "pull"),
+                         distance=args.get("distance", 0.12), move_time=args.get("move_time", 4.0),
+                         seed=seed, grip=Grip(friction=world.get("friction", 0.8)))
