@@ -62,8 +62,9 @@ def parse(path: Path, data: dict) -> dict[str, Any]:
     unknown = sorted(set(data) - SECTIONS)
     if unknown:
         raise CellFileError(path, unknown[0], f"unknown field; known: {', '.join(sorted(SECTIONS))}")
+    safety = section(path, data, "safety")
     try:
-        limits = SafetyLimits.from_dict(section(path, data, "safety"))
+        limits = SafetyLimits.from_dict(safety)
     except (TypeError, ValueError) as exc:
         raise CellFileError(path, "safety", str(exc)) from None
     gripper = dict(section(path, data, "gripper"))

@@ -1,0 +1,119 @@
+"""Cell files for real hardware: validation, building the emulated cell, `fvtree check`, the bench."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from conftest import next_host
+
+from drivers import benchmark
+from drivers.cell import CELLS_DIR, CellFileError, load_cell, read_cell_file
+from drivers.check import check_cell
+from drivers.emulators.__main__ import cell_emulators
+from drivers.real_cell import parse
+from drivers.safety import SafeArm
+from drivers.ur import UrArm
+from perception.state import FINGERS
+
+
+@pytest.fixture
+def emulated_cell(tmp_path):
+    """emulated.yaml moved onto fresh test addresses, with its emulators running."""
+    data = yaml.safe_load((CELLS_DIR / "emulated.yaml").read_text())
+    data["arm"]["host"] = next_host()
+    data["gripper"]["host"] = next_host()
+    for finger in FINGERS:
+        data["cameras"][finger]["source"] = f"http://{next_host()}:8080/stream.mjpg"
+    path = tmp_path / "emulated.yaml"
+    path.write_text(yaml.safe_dump(data))
+    procs = cell_emulators(path, object_width=0.04)
+    try:
+        for proc in procs:
+            proc.start()
+        yield path
+    finally:
+        for proc in reversed(procs):
+            proc.stop()
+
+
+def test_packaged_real_cell_files_validate_without_touching_hardware():
+    for name in ("ur_robotiq", "emulated"):
+        path = CELLS_DIR / f"{name}.yaml"
+        spec = parse(path, read_cell_file(path))
+        assert set(spec["cameras"]) == set(FINGERS)
+        assert spec["limits"].max_speed <= 0.25
+    spec = parse(CELLS_DIR / "ur_robotiq.yaml", read_cell_file(CELLS_DIR / "ur_robotiq.yaml"))
+    assert spec["gripper"].framing == "rtu" and spec["gripper"].port == 54321
+    assert spec["limits"].out_of_workspace == "refuse"
+
+
+@pytest.mark.parametrize("edit, field, message", [
+    (lambda d: d["arm"].update(hots="x"), "arm.hots", "unknown field"),
+    (lambda d: d["gripper"].update(driver="onrobot"), "gripper.driver", "unsupported driver"),
+    (lambda d: d["gripper"].update(framing="ascii"), "gripper", "framing"),
+    (lambda d: d["safety"].update(max_speed=-1), "safety", "positive"),
+    (lambda d: d.pop("arm"), "arm", "missing section"),
+    (lambda d: d["perception"].update(source="magic"), "perception.source", "unknown source"),
+    (lambda d: d.update(robot={}), "robot", "unknown field"),
+])
+def test_cell_file_errors_name_the_field(tmp_path, edit, field, message):
+    data = yaml.safe_load((CELLS_DIR / "emulated.yaml").read_text())
+    edit(data)
+    path = tmp_path / "cell.yaml"
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(CellFileError) as err:
+        parse(path, read_cell_file(path))
+    assert err.value.field == field and message in err.value.message
+
+
+def test_emulated_cell_builds_runs_perception_and_closes(emulated_cell):
+    cell = load_cell(str(emulated_cell), 30.0, "assembly", {})
+    try:
+        assert isinstance(cell.arm, SafeArm) and isinstance(cell.arm.inner, UrArm)
+        assert not cell.simulated and cell.gripper.fault() is None  # activated at start
+        states = cell.sense()  # FingerVision pipeline on the emulated camera streams
+        assert set(states) == set(FINGERS)
+        assert all(s.finger == f for f, s in states.items())
+        assert np.allclose(cell.arm.pose()[:3], [0.0, -0.4, 0.4])
+        cell.arm.kick()
+        cell.step()
+        assert cell.arm.supervise() is None
+    finally:
+        cell.close()
+
+
+def test_check_reports_every_emulated_device_ok(emulated_cell):
+    results = check_cell(str(emulated_cell))
+    assert [name.split(" (")[0] for name, _, _ in results] == ["arm", "gripper", "camera left", "camera right"]
+    assert all(ok for _, ok, _ in results), results
+
+
+def test_check_reports_what_is_unreachable(tmp_path):
+    data = yaml.safe_load((CELLS_DIR / "emulated.yaml").read_text())
+    data["arm"]["host"], data["gripper"]["host"] = next_host(), next_host()
+    data["cameras"] = {f: {"source": f"http://{next_host()}:8080/stream.mjpg", "open_timeout": 0.3}
+                       for f in FINGERS}
+    path = tmp_path / "down.yaml"
+    path.write_text(yaml.safe_dump(data))
+    results = check_cell(str(path))
+    assert not any(ok for _, ok, _ in results)
+    assert "connection refused" in results[0][2] and "cannot reach Robotiq" in results[1][2]
+
+
+def test_check_of_a_bad_cell_file_is_one_failed_line(tmp_path):
+    path = tmp_path / "bad.yaml"
+    path.write_text("kind: real\narm: {}\n")
+    [(name, ok, detail)] = check_cell(str(path))
+    assert name == "cell file" and not ok
+    assert detail == f"{path}: safety: missing section"
+
+
+def test_drivers_benchmark_writes_table_and_chart(tmp_path):
+    paths = benchmark.run(tmp_path, quick=True)
+    assert [p.name for p in paths] == ["drivers.csv", "drivers.md", "drivers.png"]
+    table = Path(paths[1]).read_text()
+    assert "servoL (streaming)" in table and "moveL async" in table
+    assert all(p.stat().st_size > 0 for p in paths)
