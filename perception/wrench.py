@@ -46,8 +46,11 @@ def marker_forces(markers: MarkerField, finger: str, mode: NormalMode = "xy_norm
     """(N, 3) force vector per marker in the finger's convention."""
     fsign, _ = _signs(finger)
     d = markers.displacement
-    raw = np.column_stack([d[:, 0], normal_component(markers, mode), d[:, 1]])
-    return raw * fsign
+    out = np.empty((len(d), 3))
+    out[:, 0] = d[:, 0] * fsign[0]
+    out[:, 1] = normal_component(markers, mode) * fsign[1]
+    out[:, 2] = d[:, 1] * fsign[2]
+    return out
 
 
 def marker_levers(markers: MarkerField, finger: str) -> np.ndarray:
@@ -95,8 +98,16 @@ def wrench(
     valid = _valid(markers)
     if not valid.any():
         return np.zeros(3), np.zeros(3)
-    f = marker_forces(markers, finger, mode)[valid]
-    p = marker_levers(markers, finger)[valid]
-    # cross([p0, 0, p1], f) written out: np.cross costs ~50 us per call on small arrays.
-    tau = np.column_stack([-p[:, 1] * f[:, 1], p[:, 1] * f[:, 0] - p[:, 0] * f[:, 2], p[:, 0] * f[:, 1]])
-    return _average(f, averaging) * force_scale, _average(tau, averaging) * torque_scale
+    f = marker_forces(markers, finger, mode)
+    p = marker_levers(markers, finger)
+    if not valid.all():
+        f, p = f[valid], p[valid]
+    # [f, cross([p0, 0, p1], f)] per marker, averaged in one pass (small-array numpy calls
+    # dominate the cost here, and this runs for every finger on every tick).
+    fw = np.empty((len(f), 6))
+    fw[:, :3] = f
+    fw[:, 3] = -p[:, 1] * f[:, 1]
+    fw[:, 4] = p[:, 1] * f[:, 0] - p[:, 0] * f[:, 2]
+    fw[:, 5] = p[:, 0] * f[:, 1]
+    mean = _average(fw, averaging)
+    return mean[:3] * force_scale, mean[3:] * torque_scale

@@ -92,6 +92,9 @@ class SyntheticFingerVision:
         self._window = np.clip(self.window_radius + 0.5 - rr, 0.0, 1.0)[:, :, None]  # soft rim
         self._background = self._scene()
         self._occluder_seed = int(self._rng.integers(1 << 31))
+        # Object surface: smooth random (non-periodic) texture, mean 1, sampled as the object slides.
+        tex = cv2.GaussianBlur(self._rng.standard_normal((256, 256)).astype(np.float32), (0, 0), 2.0)
+        self._texture = 1.0 + 0.25 * tex / tex.std()
 
     # ---- static parts -------------------------------------------------------------------
     def _scene(self) -> np.ndarray:
@@ -154,9 +157,8 @@ class SyntheticFingerVision:
         u = dx * np.cos(th) + dy * np.sin(th)
         v = -dx * np.sin(th) + dy * np.cos(th)
         soft = np.clip(np.minimum(length / 2 - np.abs(u), width / 2 - np.abs(v)) + 0.5, 0.0, 1.0)
-        us = u - shift
-        texture = (1.0 + 0.22 * np.sin(2 * np.pi * us / 17.0) * np.cos(2 * np.pi * v / 29.0)
-                   + 0.12 * np.sin(2 * np.pi * us / 6.3 + 1.3 * np.sin(v / 7.0)))
+        texture = cv2.remap(self._texture, (u - shift + 128.0).astype(np.float32),
+                            (v + 128.0).astype(np.float32), cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
         colour = texture[:, :, None] * np.asarray(OBJECT_BGR, np.float32)
         return soft.astype(np.float32), colour.astype(np.float32)
 
@@ -253,9 +255,10 @@ def pixel_level_sense(world, sensors: Mapping[str, object], clock, seed: int,
         pipeline = FingerVision(load_config(preset, camera_fps=fps), finger)
         n = pipeline.config.calibration.n_frames
         pipeline.calibrate([camera.render().image for _ in range(n)])
-        # The object colour model, marked on one frame of a known object (the original's hand edit).
-        sample = camera.render(obj=ObjectInfo(True, 0.3, np.zeros(2), 0.0))
-        pipeline.proximity.add_object(sample.image, sample.truth.object_mask)
+        # The object colour model, marked on three frames of a known object (the original's hand edit).
+        for _ in range(3):
+            sample = camera.render(obj=ObjectInfo(True, 0.3, np.zeros(2), 0.0))
+            pipeline.proximity.add_object(sample.image, sample.truth.object_mask)
         cameras[finger], pipelines[finger] = camera, pipeline
     shift = {finger: 0.0 for finger in FINGERS}
 
