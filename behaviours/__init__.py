@@ -14,6 +14,7 @@ from behaviours import (  # noqa: F401  (importing registers the skills)
     hold,
     force_track,
     object_track,
+    handover,
 )
 from behaviours.base import Param, ProgramSkill, Skill
 from behaviours.registry import SKILLS, lookup, register

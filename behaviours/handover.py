@@ -1,0 +1,97 @@
+"""Handover+LeakyInt: take an object from a person, or give one to a person, moving the
+gripper through the leaky integrator x_t = a x_{t-1} - (1 - a) L.
+
+receive: L = 1 while the object both slips (the person moves it) and presses the markers (force
+change on enough markers): the fingers close with inertia and open again if the person pulls
+back; once the fingers stop on the object at the force limit it is grasped, and received when
+the person has let go (nothing slips for `settle` ticks).
+give: once the person tugs (force change on enough markers, or slip), L = -1 opens gently;
+done when the fingers are open and the object is gone.
+"""
+
+from __future__ import annotations
+
+from py_trees.common import Status
+
+from behaviours import keys
+from behaviours.base import Param
+from behaviours.control import ForceChangeDetector, LeakyIntegrator
+from behaviours.gripper_skill import GripperProgramSkill
+from behaviours.hand import object_area, total_slip
+from behaviours.registry import register
+from perception.wrench import marker_forces
+
+
+@register
+class Handover(GripperProgramSkill):
+    NAME = "handover"
+    SUMMARY = "receive an object from a person, or give one, through the leaky-integrator gripper"
+    PARAMS = {
+        "mode": Param("str", "take the object from the person, or give it to them", "receive",
+                      choices=("receive", "give")),
+        "alpha": Param("float", "leaky-integrator inertia (closer to 1 moves more gently)", 0.9, min=0.0, max=0.999),
+        "slip": Param("float", "slip (both fingers) that counts as the object moving", 0.05, min=0.0),
+        "threshold": Param("float", "per-marker force change that counts as pressed", 0.3, "px", min=0.0),
+        "min_markers": Param("int", "markers that must change for the force to count", 8, min=1),
+        "force": Param("float", "gripper force limit", 20.0, "N", min=0.0),
+        "opening": Param("float", "give: how far to open beyond the holding width", 0.02, "m", min=0.001),
+        "settle": Param("int", "receive: ticks without slip on the stopped gripper that mean it is ours", 10, min=1),
+        "wait": Param("float", "give up when the person has not acted within this time", 15.0, "s", min=0.0),
+    }
+    READS = (keys.FV_LEFT, keys.FV_RIGHT)
+
+    def _pressed(self, detector: ForceChangeDetector) -> bool:
+        left, right = self.tactile()
+        return detector.update(marker_forces(left.markers, "left"), marker_forces(right.markers, "right"))
+
+    def program(self):
+        detector = ForceChangeDetector(self.p.threshold, self.p.min_markers)
+        drive = LeakyIntegrator(self.p.alpha)
+        start = self.now()
+        steps = self.receive if self.p.mode == "receive" else self.give
+        return (yield from steps(detector, drive, start))
+
+    def receive(self, detector: ForceChangeDetector, drive: LeakyIntegrator, start: float):
+        gripper = self.cell.gripper
+        open_width, grasped, still = gripper.width(), False, 0
+        while still < self.p.settle:
+            pressed = self._pressed(detector)
+            slipping = total_slip(*self.tactile()) > self.p.slip
+            grasped = grasped or gripper.object_detected()
+            if grasped:  # the fingers stopped on it at the force limit: wait for the person to let go
+                if object_area(*self.tactile()) <= 0.0:
+                    return self.fail("the object slipped out after the grasp: raise 'force'")
+                still = 0 if slipping else still + 1
+                self.feedback_message = f"grasped at {gripper.width() * 1000:.1f} mm, waiting for the person to let go"
+            else:
+                closing = -drive.step(1.0 if pressed and slipping else 0.0)  # 0 open .. 1 closed
+                gripper.move(open_width * (1.0 - closing), speed=gripper.max_speed, force=self.p.force)
+                if closing < 0.01 and self.now() - start > self.p.wait:
+                    return self.fail(f"no object offered within {self.p.wait:.0f} s (nothing pressed "
+                                     "and moved between the fingers)")
+                self.feedback_message = (f"{'closing' if pressed and slipping else 'waiting'}: "
+                                         f"{closing * 100:.0f} % closed, {detector.changed} markers pressed")
+            yield
+        self.feedback_message = f"received, holding at {gripper.width() * 1000:.1f} mm"
+        return Status.SUCCESS
+
+    def give(self, detector: ForceChangeDetector, drive: LeakyIntegrator, start: float):
+        gripper = self.cell.gripper
+        if object_area(*self.tactile()) <= 0.0:
+            return self.fail("nothing in the gripper to give")
+        while not (self._pressed(detector) or total_slip(*self.tactile()) > self.p.slip):
+            if self.now() - start > self.p.wait:
+                return self.fail(f"no one took the object within {self.p.wait:.0f} s; still holding it")
+            self.feedback_message = f"waiting for the person to take it ({detector.changed} markers changed)"
+            yield
+        hold_width = gripper.width()
+        target = min(hold_width + self.p.opening, gripper.max_width)
+        while gripper.width() < target - 1e-4 or object_area(*self.tactile()) > 0.0:
+            opened = drive.step(-1.0)  # 0 -> 1 with inertia
+            gripper.move(hold_width + opened * (target - hold_width), speed=gripper.max_speed)
+            if self.now() - start > self.p.wait:
+                return self.fail(f"opened, but the object was not taken within {self.p.wait:.0f} s")
+            self.feedback_message = f"releasing, {opened * 100:.0f} % open"
+            yield
+        self.feedback_message = "given"
+        return Status.SUCCESS

@@ -1,0 +1,93 @@
+"""handover: the leaky-integrator gripper closes only while the object is both pressed and
+moving, reopens when the person pulls back, gives on a tug; failures and halting; and the full
+take-and-give-back with a simulated person."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from assembly.testing import TreeHarness, mock_cell, touch
+from drivers.cell import load_cell
+
+EMPTY = {f: touch(f) for f in ("left", "right")}
+
+
+def one_skill(params: str = "{}", **cell_kw) -> TreeHarness:
+    text = f"version: 1\nname: t\nroot: {{skill: handover, name: s, params: {params}}}\n"
+    return TreeHarness.from_text(text, cell=mock_cell(**cell_kw))
+
+
+def offered(slip: float = 0.2) -> dict:
+    """A bottle pressed and dragged on the right pad while the person moves it."""
+    return {"left": touch("left", area=0.3, slip=slip / 2),
+            "right": touch("right", normal=4.0, shear=(3.0, 0.0), area=0.3, slip=slip / 2)}
+
+
+def widths(h) -> np.ndarray:
+    return np.array([c.args[0] for c in h.gripper.commands_named("move")])
+
+
+def test_receive_closes_with_inertia_then_holds_once_the_person_lets_go():
+    h = one_skill("{mode: receive, alpha: 0.9, settle: 5}", object_width=0.05)
+    h.script(lambda tick, t: EMPTY if tick < 5 else offered(0.2 if h.gripper.width() > 0.0495 else 0.0))
+    assert h.run_until_done(200).name == "SUCCESS"
+    w = widths(h)
+    closing = 1 - w / 0.085
+    assert np.allclose(closing[:5], 0.0)  # nothing offered yet
+    assert closing[5] == closing[5:].min() > 0 and np.all(np.diff(closing) >= 0)  # smooth, monotone
+    assert h.gripper.object_detected() and "received" in h.feedback("s")
+
+
+def test_receive_reopens_when_the_person_pulls_back():
+    h = one_skill("{mode: receive}")
+    h.script(lambda tick, t: offered() if 5 <= tick < 12 else EMPTY)
+    h.tick(40)
+    w = widths(h)
+    assert w.min() < 0.06 and w[-1] > 0.08  # closed part way, then leaked back open
+    assert h.status("s") == "RUNNING"
+
+
+def test_receive_fails_when_nothing_is_offered():
+    h = one_skill("{mode: receive, wait: 2.0}")
+    assert h.run_until_done(200).name == "FAILURE"
+    assert "no object offered within 2 s" in h.feedback("s")
+
+
+def test_give_opens_on_a_tug_and_succeeds_when_the_object_is_gone():
+    held = {f: touch(f, normal=20.0, shear=(0.0, -1.5), area=0.3) for f in ("left", "right")}
+    tugged = {f: touch(f, normal=20.0, shear=(0.0, 2.5), area=0.3) for f in ("left", "right")}
+    h = one_skill("{mode: give, opening: 0.02}", gripper_width=0.045, object_width=0.05)
+    h.script(lambda tick, t: held if tick < 10 else tugged if h.gripper.width() < 0.05 else EMPTY)
+    assert h.run_until_done(300).name == "SUCCESS"
+    w = widths(h)
+    assert w[0] > 0.045 and np.all(np.diff(w) > 0) and w[-1] <= 0.065 + 1e-9  # gentle, monotone
+
+
+def test_give_fails_when_no_one_takes_the_object():
+    h = one_skill("{mode: give, wait: 1.0}", gripper_width=0.045, object_width=0.05)
+    h.script(lambda tick, t: {f: touch(f, normal=20.0, area=0.3) for f in ("left", "right")})
+    assert h.run_until_done(100).name == "FAILURE"
+    assert "no one took the object" in h.feedback("s") and not h.gripper.commands_named("move")
+
+
+def test_handover_halted_stops_the_gripper():
+    h = one_skill("{mode: receive}")
+    h.script(lambda tick, t: offered())
+    h.tick(8)
+    h.halt()
+    assert h.status("s") == "INVALID" and h.gripper.commands[-1].name == "stop"
+
+
+def test_takes_a_bottle_from_a_person_and_gives_it_back():
+    cell = load_cell("sim", 30, "handover", {})
+    h = TreeHarness.from_file("trees/handover.yaml", cell=cell)
+    assert h.run_until_done(1000).name == "SUCCESS"
+    assert cell.world.metrics()["bottle"] == "taken back by the person"
+
+
+def test_give_reports_a_person_who_never_takes_it_back():
+    cell = load_cell("sim", 30, "handover", {"give_after": -1})
+    h = TreeHarness.from_file("trees/handover.yaml", cell=cell)
+    assert h.run_until_done(1500).name == "FAILURE"
+    assert "no one took the object" in h.feedback("handover_demo/give")
+    assert cell.world.metrics()["bottle"] == "held by the robot"
