@@ -61,7 +61,7 @@ class TrackerConfig:
     nonzero_range: tuple[float, float] = (0.3, 3.0)  # NonZeroMin/Max of the ROI mask fill
     window: float = 0.0  # window tracker: half side in px; 0 = marker radius + 3
     min_contrast: float = 20.0  # window tracker: grey levels between background and marker core
-    area_range: tuple[float, float] = (0.4, 2.5)  # window tracker: dark area over calibrated area
+    area_range: tuple[float, float] = (0.5, 1.6)  # window tracker: dark area over calibrated area
     consistency: float = 0.0  # px; flag markers whose displacement leaves their neighbours' (0 = off)
     neighbours: int = 4  # neighbours used by the consistency check
 

@@ -186,8 +186,8 @@ class WindowTracker(MarkerTracker):
         self._area0 = np.pi * (self.origin_size / 2.0) ** 2
         self._min_sep = 0.5 * min_spacing(self.origin)
         self._off = np.arange(-self._half, self._half + 1, dtype=np.float32)
-        # Size is measured inside a disc a little larger than a marker, so that darker background
-        # at the window edge does not count as marker area.
+        # Centroid and size use only a disc a little larger than a marker, so that darker background
+        # in the window corners does not pull the centroid or count as marker area.
         self._disc = np.hypot(self._off[:, None], self._off[None, :]) <= radius + 2.0
 
     def _window(self, grey: np.ndarray, centre: np.ndarray):
@@ -202,7 +202,7 @@ class WindowTracker(MarkerTracker):
         ring = np.concatenate([p[:, 0, :], p[:, -1, :], p[:, 1:-1, 0], p[:, 1:-1, -1]], axis=1)
         bg = np.median(ring, axis=1)  # robust to a bright or dark feature touching the window
         dark = p.min(axis=(1, 2))
-        below = np.maximum(0.5 * (bg + dark)[:, None, None] - p, 0)  # weight: depth below half-way
+        below = np.maximum(0.5 * (bg + dark)[:, None, None] - p, 0) * self._disc  # depth below half-way
         inside = below > 0
         count = inside.sum(axis=(1, 2))
         core = (p * inside).sum(axis=(1, 2)) / np.maximum(count, 1)

@@ -231,12 +231,18 @@ class SyntheticFingerVision:
         return RenderedFrame(image, Truth(position.copy(), diameters, visible, mask, truth_obj, obj_shift))
 
     def _visible(self, position: np.ndarray, dark: np.ndarray, glare: np.ndarray) -> np.ndarray:
+        """Markers wholly inside the image and the window and clear of occluders and glare."""
         w, h = self.image_size
         inside = (position[:, 0] >= 0) & (position[:, 0] < w) & (position[:, 1] >= 0) & (position[:, 1] < h)
-        ix = np.clip(np.rint(position[:, 0]).astype(int), 0, w - 1)
-        iy = np.clip(np.rint(position[:, 1]).astype(int), 0, h - 1)
         rim = np.linalg.norm(position - self._centre, axis=1) < self.window_radius - 4
-        return inside & rim & (dark[iy, ix] < 0.5) & (glare[iy, ix] < 0.5)
+        hidden = np.maximum(dark, glare)
+        angles = np.linspace(0, 2 * np.pi, 8, endpoint=False)
+        ring = np.concatenate([[[0.0, 0.0]], (self.marker_size / 2 + 1) * np.column_stack(
+            [np.cos(angles), np.sin(angles)])])  # the centre and a circle just outside the marker
+        pts = position[:, None, :] + ring[None, :, :]
+        ix = np.clip(np.rint(pts[..., 0]).astype(int), 0, w - 1)
+        iy = np.clip(np.rint(pts[..., 1]).astype(int), 0, h - 1)
+        return inside & rim & (hidden[iy, ix].max(axis=1) < 0.1)
 
 
 def pixel_level_sense(world, sensors: Mapping[str, object], clock, seed: int,

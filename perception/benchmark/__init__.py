@@ -177,7 +177,7 @@ def bench_sweeps(quick: bool) -> list[dict]:
                 config = load_config(preset).with_overrides({**over, **MARKERS_ONLY, "camera_fps": 30.0})
                 fv = calibrated(config, clean)
                 r = score(fv, seq.frames, seq.origin)
-                broken = r.rms > BROKEN_RMS or r.tracked < 0.5 or r.swaps > 0
+                broken = not r.rms <= BROKEN_RMS or r.tracked < 0.5 or r.swaps > 0  # nan: broken
                 rows.append({"factor": factor, "value": value, "method": method, "rms_px": r.rms,
                              "tracked": r.tracked, "unflagged_swaps": r.swaps, "broken": broken})
     return rows

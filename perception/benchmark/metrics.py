@@ -24,7 +24,7 @@ def match_truth(calibrated: np.ndarray, truth: np.ndarray, tol: float = 1.5) -> 
 class Track:
     """What a pipeline reported over a rendered sequence, in the true markers' terms."""
 
-    rms: float  # px, over valid markers that are visible and matched
+    rms: float  # px, over valid markers that are visible and matched (nan if none)
     tracked: float  # share of visible, matched markers reported valid (mean over frames)
     swaps: int  # valid markers nearer another marker's true position than their own (unflagged)
     times: np.ndarray  # s per frame
@@ -58,7 +58,8 @@ def score(fv: FingerVision, frames, truth_origin: np.ndarray) -> Track:
         tracked.append(valid.sum() / max(seen.sum(), 1))
         nearest = np.linalg.norm(est[:, None, :] - truth.position[None, :, :], axis=2).argmin(axis=1)
         swaps += int((valid & (nearest != idx[real])).sum())
-    return Track(float(np.sqrt(sq / max(n, 1))), float(np.mean(tracked)), swaps, times)
+    rms = float(np.sqrt(sq / n)) if n else float("nan")  # nan: nothing tracked at all
+    return Track(rms, float(np.mean(tracked)), swaps, times)
 
 
 def best_threshold(score_values: np.ndarray, actual: np.ndarray) -> float:

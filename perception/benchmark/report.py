@@ -73,16 +73,16 @@ def chart_sweeps(out: Path, rows: Sequence[dict], factors: Sequence[str]) -> Pat
         for i, method in enumerate(methods):
             pts = [r for r in rows if r["factor"] == factor and r["method"] == method]
             x = [r["value"] for r in pts]
-            y = [min(r["rms_px"], 5.0) for r in pts]
+            y = [5.0 if r["rms_px"] != r["rms_px"] else min(r["rms_px"], 5.0) for r in pts]  # nan: lost
             line, = ax.plot(x, y, "-o", ms=3, label=method)
-            broken = [(r["value"], min(r["rms_px"], 5.0)) for r in pts if r["broken"]]
+            broken = [(x[i], y[i]) for i, r in enumerate(pts) if r["broken"]]
             if broken:
                 ax.scatter(*zip(*broken), marker="x", s=70, color=line.get_color(), zorder=3)
         ax.axhline(0.5, ls="--", c="grey", lw=1)
         ax.set_yscale("log")
         ax.set_xlabel(factor)
         ax.set_title(factor)
-    axes[0][0].set_ylabel("marker RMS error, px (clipped at 5)")
+    axes[0][0].set_ylabel("marker RMS error, px (5 = clipped or nothing tracked)")
     axes[0][0].legend(fontsize=7)
     fig.suptitle("Stability sweeps: x = broken (RMS > 0.5 px, < 50 % tracked, or unflagged swaps)")
     return _save(fig, out / "sweeps.png")
