@@ -15,6 +15,9 @@ from behaviours import (  # noqa: F401  (importing registers the skills)
     force_track,
     object_track,
     handover,
+    arm_rot,
+    in_hand_rot,
+    in_hand_man,
 )
 from behaviours.base import Param, ProgramSkill, Skill
 from behaviours.registry import SKILLS, lookup, register

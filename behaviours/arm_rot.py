@@ -1,0 +1,57 @@
+"""ArmRot: turn the wrist about the fingers' closing axis in the sense of the torque the held
+object puts on the fingers (estimated from the marker field), until that torque vanishes:
+an asymmetric object then hangs with its centre of mass below the grasp."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from py_trees.common import Status
+
+from behaviours import keys
+from behaviours.base import Param, ProgramSkill
+from behaviours.geometry import angle_between, rotation
+from behaviours.hand import hand_torque, object_area
+from behaviours.registry import register
+
+
+@register
+class ArmRot(ProgramSkill):
+    NAME = "arm_rot"
+    SUMMARY = "rotate the arm until the in-finger torque of the held object goes to zero"
+    PARAMS = {
+        "gain": Param("float", "wrist speed per unit of torque", 2.0, "rad/s/px", min=0.0),
+        "max_speed": Param("float", "wrist speed limit", 0.6, "rad/s", min=0.01, max=1.5),
+        "eps": Param("float", "torque that counts as zero", 0.02, "px", min=0.0),
+        "settle": Param("int", "ticks the torque must stay below eps", 5, min=1),
+        "max_angle": Param("float", "give up after turning this far", 180.0, "deg", min=1.0, max=360.0),
+    }
+    READS = (keys.FV_LEFT, keys.FV_RIGHT)
+    WRITES = (keys.ARM_ROTATION,)
+
+    def program(self):
+        arm = self.cell.arm
+        start = arm.pose()
+        if object_area(*self.tactile()) <= 0.0:
+            return self.fail("nothing held between the fingers to balance")
+        quiet = 0
+        while quiet < self.p.settle:
+            torque = hand_torque(*self.tactile())
+            turned = math.degrees(angle_between(start, arm.pose()))
+            if turned > self.p.max_angle:
+                arm.stop()
+                return self.fail(f"turned {turned:.0f} deg and the torque is still {torque:.2f} px: "
+                                 "is the object caught on something?")
+            if arm.fault():
+                return self.fail(f"arm fault: {arm.fault()}")
+            quiet = quiet + 1 if abs(torque) < self.p.eps else 0
+            rate = float(np.clip(self.p.gain * torque, -self.p.max_speed, self.p.max_speed))
+            arm.speed_linear(np.r_[0.0, 0.0, 0.0, rotation(arm.pose())[:, 1] * rate])
+            self.feedback_message = f"torque {torque:.2f} px, turned {turned:.1f} deg"
+            yield
+        arm.stop()
+        turned = math.degrees(angle_between(start, arm.pose()))
+        self.write(keys.ARM_ROTATION, turned)
+        self.feedback_message = f"torque vanished after turning {turned:.1f} deg"
+        return Status.SUCCESS

@@ -1,0 +1,57 @@
+"""InHandMan: the original in-hand pivot (inhand): open a step at a time until the object
+slips, close a step while it slips, and finish when it has turned by the target angle,
+closing one more step."""
+
+from __future__ import annotations
+
+import math
+
+from py_trees.common import Status
+
+from behaviours import keys
+from behaviours.base import Param
+from behaviours.gripper_skill import GripperProgramSkill
+from behaviours.hand import object_angle, total_slip
+from behaviours.registry import register
+
+
+@register
+class InHandMan(GripperProgramSkill):
+    NAME = "in_hand_man"
+    SUMMARY = "pivot the held object in the fingers by stepping open until it slips (original rule)"
+    PARAMS = {
+        "target": Param("float", "turn to stop at", 20.0, "deg", min=1.0, max=180.0),
+        "step": Param("float", "gripper step", 0.0005, "m", min=1e-5, max=0.005),
+        "slip": Param("float", "slip (both fingers) that means the object turns", 0.05, min=0.0),
+        "opening": Param("float", "largest opening beyond the starting width", 0.01, "m", min=0.0005, max=0.05),
+        "force": Param("float", "gripper force limit", 40.0, "N", min=0.0),
+    }
+    READS = (keys.FV_LEFT, keys.FV_RIGHT)
+    WRITES = (keys.OBJECT_ANGLE,)
+
+    def program(self):
+        gripper = self.cell.gripper
+        theta0 = object_angle(*self.tactile())
+        if theta0 is None:
+            return self.fail("no object seen between the fingers to pivot")
+        width0, turned = gripper.width(), 0.0
+        speed = self.p.step / self.cell.clock.period
+        while turned <= self.p.target:
+            left, right = self.tactile()
+            theta = object_angle(left, right)
+            if theta is None:
+                return self.fail(f"the object fell out after turning {turned:.0f} deg: use a smaller 'step'")
+            turned = math.degrees(abs(theta - theta0))
+            slipping = total_slip(left, right) >= self.p.slip
+            width = gripper.width() + (-self.p.step if slipping else self.p.step)
+            if width > width0 + self.p.opening:
+                return self.fail(f"opened {self.p.opening * 1000:.1f} mm and the object did not turn: "
+                                 "it balances in the grasp, or allow a larger 'opening'")
+            gripper.move(width, speed, self.p.force)
+            self.feedback_message = f"turned {turned:.1f} deg, {'closing' if slipping else 'opening'}"
+            yield
+        gripper.move(gripper.width() - self.p.step, speed, self.p.force)
+        yield
+        self.write(keys.OBJECT_ANGLE, turned)
+        self.feedback_message = f"turned {turned:.1f} deg"
+        return Status.SUCCESS

@@ -1,0 +1,85 @@
+"""InHandRot: let a held object turn under its own weight by opening the gripper slowly through
+the leaky integrator x_t = a x_{t-1} - (1 - a) L, and close again at the target angle.
+
+variant torque: L = 1 (open) while the object still twists the fingers (|torque| > torque_eps);
+  ends when the torque vanishes - light objects give too little torque and stop short.
+variant slip: L = 1 while the object does not slip, 0 while it slips, so the leak closes the
+  grip again and the object turns in small slips.
+"""
+
+from __future__ import annotations
+
+import math
+
+from py_trees.common import Status
+
+from behaviours import keys
+from behaviours.base import Param
+from behaviours.control import LeakyIntegrator
+from behaviours.gripper_skill import GripperProgramSkill
+from behaviours.hand import hand_torque, object_angle, total_slip
+from behaviours.registry import register
+
+
+@register
+class InHandRot(GripperProgramSkill):
+    NAME = "in_hand_rot"
+    SUMMARY = "let the held object turn under its own weight (leaky-integrator opening) to a target angle"
+    PARAMS = {
+        "variant": Param("str", "what drives the opening", "slip", choices=("torque", "slip")),
+        "target": Param("float", "turn to stop at, from the starting orientation", 60.0, "deg", min=1.0, max=180.0),
+        "alpha": Param("float", "leaky-integrator inertia (closer to 1 opens more slowly)", 0.99, min=0.0, max=0.999),
+        "opening": Param("float", "largest opening beyond the starting width", 0.006, "m", min=0.0005, max=0.05),
+        "torque_eps": Param("float", "torque variant: torque that counts as zero", 0.01, "px", min=0.0),
+        "slip": Param("float", "slip variant: slip (both fingers) that counts as turning", 0.05, min=0.0),
+        "settle": Param("int", "torque variant: ticks of zero torque that end the rotation", 10, min=1),
+        "max_time": Param("float", "give up after this long", 20.0, "s", min=0.1),
+        "force": Param("float", "gripper force when closing again", 40.0, "N", min=0.0),
+    }
+    READS = (keys.FV_LEFT, keys.FV_RIGHT)
+    WRITES = (keys.OBJECT_ANGLE,)
+
+    def program(self):
+        gripper = self.cell.gripper
+        theta0 = object_angle(*self.tactile())
+        if theta0 is None:
+            return self.fail("no object seen between the fingers to rotate")
+        width0, start = gripper.width(), self.now()
+        drive, quiet, turned = LeakyIntegrator(self.p.alpha), 0, 0.0
+        while turned < self.p.target:
+            left, right = self.tactile()
+            theta = object_angle(left, right)
+            if theta is None:
+                return self.fail(f"the object fell out after turning {turned:.0f} deg: open more slowly "
+                                 "(alpha closer to 1) or less far ('opening')")
+            turned = math.degrees(abs(theta - theta0))
+            if self.p.variant == "torque":
+                twisting = abs(hand_torque(left, right)) > self.p.torque_eps
+                quiet = 0 if twisting else quiet + 1
+                if quiet >= self.p.settle:
+                    yield from self._close(width0)
+                    return self.fail(f"the torque vanished at {turned:.0f} deg, short of the target "
+                                     f"{self.p.target:.0f} deg: too light for torque sensing, use variant: slip")
+                drive_input = 1.0 if twisting else 0.0
+            else:
+                drive_input = 0.0 if total_slip(left, right) > self.p.slip else 1.0
+            opened = drive.step(-drive_input)  # 0 closed .. 1 fully opened, with inertia
+            gripper.move(width0 + opened * self.p.opening, speed=gripper.max_speed)
+            if self.now() - start > self.p.max_time:
+                yield from self._close(width0)
+                return self.fail(f"turned only {turned:.0f} of {self.p.target:.0f} deg in "
+                                 f"{self.p.max_time:.0f} s: allow a larger 'opening'")
+            self.feedback_message = f"turned {turned:.1f} deg, {opened * 100:.0f} % open"
+            yield
+        yield from self._close(width0)
+        turned = math.degrees(abs(object_angle(*self.tactile()) - theta0))
+        self.write(keys.OBJECT_ANGLE, turned)
+        self.feedback_message = f"turned {turned:.1f} deg"
+        return Status.SUCCESS
+
+    def _close(self, width: float):
+        """Grip again at the starting width to stop the object turning."""
+        gripper = self.cell.gripper
+        gripper.move(width, speed=gripper.max_speed, force=self.p.force)
+        while gripper.is_moving():
+            yield

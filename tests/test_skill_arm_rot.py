@@ -1,0 +1,68 @@
+"""arm_rot: turns the wrist with the in-finger torque until it vanishes; reports a torque that
+never goes; stops when halted; balances a stick with a heavy head in the armrot scene."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from assembly.testing import TreeHarness, touch
+from behaviours.geometry import angle_between
+from drivers.cell import load_cell
+
+
+def one_skill(params: str = "{}") -> TreeHarness:
+    return TreeHarness.from_text(f"version: 1\nname: t\nroot: {{skill: arm_rot, name: s, params: {params}}}\n")
+
+
+def twisted(torque: float) -> dict:
+    """Both pads holding an object that twists the hand by `torque` N m about tool y."""
+    return {"left": touch("left", normal=20.0, torque=torque / 2, area=0.25),
+            "right": touch("right", normal=20.0, torque=-torque / 2, area=0.25)}
+
+
+def test_arm_rot_turns_until_the_torque_vanishes():
+    h = one_skill()
+    start = h.arm.pose()
+    h.script(lambda tick, t: twisted(0.2 * math.cos(angle_between(start, h.arm.pose()))))
+    assert h.run_until_done(600).name == "SUCCESS"
+    assert h.blackboard("/task/arm_rotation") == pytest.approx(90.0, abs=4.0)
+    assert h.arm.commands[-1].name == "stop"
+
+
+def test_arm_rot_turns_the_other_way_for_the_opposite_torque():
+    h = one_skill()
+    h.script(lambda tick, t: twisted(-0.1))
+    h.tick(3)
+    twist = h.arm.commands_named("speed_linear")[-1].args[0]
+    assert twist[4] > 0.0  # tool y is base -y at the home pose: a negative turn about it
+
+
+def test_arm_rot_gives_up_when_the_torque_never_goes():
+    h = one_skill("{max_angle: 30}")
+    h.script(lambda tick, t: twisted(0.2))
+    assert h.run_until_done(600).name == "FAILURE"
+    assert "still" in h.feedback("s") and not h.arm.is_moving()
+
+
+def test_arm_rot_needs_a_held_object():
+    h = one_skill()
+    assert h.run_until_done(5).name == "FAILURE" and "nothing held" in h.feedback("s")
+
+
+def test_arm_rot_halted_stops_the_arm():
+    h = one_skill()
+    h.script(lambda tick, t: twisted(0.2))
+    h.tick(5)
+    h.halt()
+    assert h.status("s") == "INVALID" and not h.arm.is_moving()
+
+
+def test_arm_rot_lets_a_stick_with_a_heavy_head_hang():
+    cell = load_cell("sim", 30, "armrot", {})
+    h = TreeHarness.from_file("trees/arm_rot.yaml", cell=cell)
+    assert h.run_until_done(2000).name == "SUCCESS"
+    m = cell.world.metrics()
+    assert m["stick from hanging (deg)"] < 6.0 and m["turned in the hand (deg)"] < 1.0
+    assert h.blackboard("/task/arm_rotation") == pytest.approx(90.0, abs=6.0)

@@ -1,0 +1,97 @@
+"""in_hand_rot: leaky-integrator opening driven by torque or slip, tick by tick; the failures it
+reports; halting; and in the stick scenes, the paper's finding that torque sensing stops short
+on light objects where slip does not."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from assembly.testing import TreeHarness, mock_cell, touch
+from drivers.cell import load_cell
+
+W0 = 0.015  # gripper width holding the bar
+
+
+def one_skill(params: str = "{}") -> TreeHarness:
+    text = f"version: 1\nname: t\nroot: {{skill: in_hand_rot, name: s, params: {params}}}\n"
+    return TreeHarness.from_text(text, cell=mock_cell(gripper_width=W0, object_width=0.02))
+
+
+def bar(h, torque: float = 0.0):
+    """Script of a bar that turns 1 deg per tick, slipping, while the fingers are open beyond 1 mm."""
+    turned = [0.0]
+
+    def script(tick, t):
+        slipping = h.gripper.width() > W0 + 0.001
+        turned[0] += 1.0 if slipping else 0.0
+        angle = math.radians(turned[0])
+        return {f: touch(f, normal=10.0, area=0.25, orientation=s * angle, slip=0.05 * slipping,
+                         torque=-s * torque / 2) for f, s in (("left", -1.0), ("right", 1.0))}
+    return script
+
+
+def widths(h) -> np.ndarray:
+    return np.array([c.args[0] for c in h.gripper.commands_named("move")])
+
+
+def test_slip_variant_opens_gently_and_closes_at_the_target():
+    h = one_skill("{variant: slip, target: 30, alpha: 0.9}")
+    h.script(bar(h))
+    assert h.run_until_done(300).name == "SUCCESS"
+    w = widths(h)
+    assert w[:2] == pytest.approx([W0 + 0.1 * 0.006, W0 + 0.19 * 0.006])  # leaky-integrator opening
+    assert (np.diff(w[:-1]) < 0).any()  # the leak closes again while the bar slips
+    assert w[-1] == pytest.approx(W0)  # closed again to stop the bar
+    assert h.blackboard("/task/object_angle") >= 30.0
+
+
+def test_torque_variant_opens_while_the_object_twists_the_fingers():
+    h = one_skill("{variant: torque, target: 30}")
+    h.script(bar(h, torque=0.1))
+    assert h.run_until_done(600).name == "SUCCESS"
+    assert widths(h).max() > W0 + 0.001
+
+
+def test_torque_variant_reports_a_torque_too_small_to_sense():
+    h = one_skill("{variant: torque, target: 30}")
+    h.script(bar(h, torque=0.001))
+    assert h.run_until_done(300).name == "FAILURE"
+    assert "too light for torque sensing, use variant: slip" in h.feedback("s")
+    assert widths(h)[-1] == pytest.approx(W0)
+
+
+def test_in_hand_rot_needs_a_seen_object():
+    h = one_skill()
+    assert h.run_until_done(5).name == "FAILURE" and "no object seen" in h.feedback("s")
+
+
+def test_in_hand_rot_halted_stops_the_gripper():
+    h = one_skill()
+    h.script(bar(h))
+    h.tick(5)
+    h.halt()
+    assert h.status("s") == "INVALID" and h.gripper.commands[-1].name == "stop"
+
+
+def rotate(scene: str, variant: str, squeeze: float) -> tuple[str, dict]:
+    text = (open("trees/in_hand_rot.yaml").read()
+            .replace("variant: slip", f"variant: {variant}")
+            .replace("name: grasp}", f"name: grasp, params: {{squeeze: {squeeze}}}}}"))
+    cell = load_cell("sim", 30, scene, {})
+    return TreeHarness.from_text(text, cell=cell).run_until_done(2000).name, cell.world.metrics()
+
+
+@pytest.mark.parametrize("variant", ["torque", "slip"])
+def test_a_heavy_bar_turns_to_the_target_either_way(variant):
+    status, m = rotate("inhand", variant, 0.005)
+    assert status == "SUCCESS" and 60.0 <= m["turned in the hand (deg)"] < 65.0
+
+
+def test_a_light_pen_turns_by_slip_but_not_by_torque():
+    status, m = rotate("inhand_light", "slip", 0.001)
+    assert status == "SUCCESS" and m["turned in the hand (deg)"] >= 60.0
+    status, m = rotate("inhand_light", "torque", 0.001)
+    assert status == "FAILURE" and m["turned in the hand (deg)"] < 60.0
