@@ -154,6 +154,36 @@ def parser() -> argparse.ArgumentParser:
     c = sub.add_parser("check", help="connect to each device of a cell and report, moving nothing")
     c.add_argument("--cell", required=True)
     c.set_defaults(func=cmd_check)
+
+    # --- learning workflow (issue 4): fvtree record / fvtree train ---------------------------
+    def cmd_record(args) -> int:
+        from assembly.recording import record
+
+        print(f"wrote {record(args.tree, args.out, cell=args.cell, seed=args.seed, runs=args.runs)}")
+        return 0
+
+    def cmd_train(args) -> int:
+        from perception.learning.train import run
+
+        for path in run(args.kind, args.data, args.out, seed=args.seed):
+            print(f"wrote {path}")
+        return 0
+
+    rec = sub.add_parser("record", help="run a tree and record per-tick tactile features and labels")
+    rec.add_argument("tree")
+    rec.add_argument("--out", required=True, help="recording file to write (.npz)")
+    rec.add_argument("--cell", default="sim", help="cell file or packaged cell name (default: sim)")
+    rec.add_argument("--seed", type=int, default=0, help="seed of the first run")
+    rec.add_argument("--runs", type=int, default=1, help="record this many runs (seeds seed, seed+1, ...)")
+    rec.set_defaults(func=cmd_record)
+
+    tr = sub.add_parser("train", help="train ForceLearn (force) or StirLearn (stir) on a recording")
+    tr.add_argument("kind", choices=("force", "stir"))
+    tr.add_argument("data", help="recording made by fvtree record")
+    tr.add_argument("--out", required=True, help="model file to write (.joblib)")
+    tr.add_argument("--seed", type=int, default=0)
+    tr.set_defaults(func=cmd_train)
+    # --- end of the learning workflow block -----------------------------------------------------
     return p
 
 
