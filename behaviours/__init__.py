@@ -18,6 +18,7 @@ from behaviours import (  # noqa: F401  (importing registers the skills)
     arm_rot,
     in_hand_rot,
     in_hand_man,
+    press_with_force,
 )
 from behaviours.base import Param, ProgramSkill, Skill
 from behaviours.registry import SKILLS, lookup, register

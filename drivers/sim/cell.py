@@ -14,7 +14,7 @@ from drivers.sim.arm import KinematicArm
 from drivers.sim.assembly_scene import AssemblyScene, Element, Plate, SceneConfig
 from drivers.sim.fingervision_model import SensorModel
 from drivers.sim.gripper import SimGripper
-from drivers.sim import followme_scene, handover_scene, hold_scene, stick_scene  # tactile-skill scenes (issue 4)
+from drivers.sim import followme_scene, handover_scene, hold_scene, press_scene, stick_scene  # tactile-skill scenes (issue 4)
 from drivers.sim.plate import BeamPlate
 from perception.state import FINGERS
 
@@ -58,6 +58,7 @@ SCENES: dict[str, Callable[..., object]] = {
     "inhand": stick_scene.builder("inhand"),
     "inhand_light": stick_scene.builder("inhand_light"),
     "armrot": stick_scene.builder("armrot"),
+    "press": press_scene.build,
 }
 
 

@@ -1,0 +1,100 @@
+"""The press scene (ForceLearn): a stick hangs in a holder between the open fingers, pointing
+down along tool z, above an electronic scale. Pressing it on the scale loads the grip along the
+stick; the scale reads the contact force with noise (`scale_noise`), which is the label a
+learned force model is trained on.
+
+The pads show that load as shear with the partial-slip softening of a Hertz-Mindlin contact:
+as the load nears the grip's friction capacity the gel shears more per newton, so the marker
+field is not linear in the force (one reason to learn the mapping). Past the capacity the stick
+slides up in the grip.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from drivers.sim.arm import KinematicArm
+from drivers.sim.grip import Grip, pad_contacts, pad_view, slip_signal, tool_rotation
+from drivers.sim.gripper import SimGripper
+
+GRAVITY = 9.81
+
+
+def mindlin_shear(load: float, capacity: float) -> float:
+    """Elastic-equivalent shear of a partially slipping contact under tangential `load`:
+    1.5 c (1 - (1 - |load|/c)^(2/3)), equal to the load when small, 1.5 c at the capacity c."""
+    if capacity <= 0.0:
+        return 0.0
+    ratio = min(abs(load) / capacity, 1.0)
+    return float(np.sign(load) * 1.5 * capacity * (1.0 - (1.0 - ratio) ** (2.0 / 3.0)))
+
+
+@dataclass
+class PressScene:
+    arm: KinematicArm
+    gripper: SimGripper
+    mass: float = 0.05  # kg
+    width: float = 0.02  # m across the fingers
+    length: float = 0.1  # m of stick below the grasp
+    scale_gap: float = 0.03  # m from the stick tip down to the scale at the start
+    contact_stiffness: float = 4000.0  # N/m, scale platform, stick and pads in series
+    scale_noise: float = 0.1  # N, std of the scale reading
+    area: float = 0.2
+    seed: int = 0
+    grip: Grip = field(default_factory=Grip)
+
+    def __post_init__(self):
+        self._rng = np.random.default_rng(self.seed)
+        start = self.arm.pose()
+        self._start = start[:3]
+        self._scale_z = start[2] - self.length - self.scale_gap  # tool z points down at the start
+        self.held = False
+        self.force = 0.0  # N the scale pushes the stick up with
+        self._load = np.zeros(3)
+
+    def tip(self) -> np.ndarray:
+        """Stick tip (base frame)."""
+        return self.arm.pose()[:3] + tool_rotation(self.arm)[:, 2] * (self.length + self.grip.slid[1])
+
+    def step(self, dt: float) -> None:
+        self.arm.step(dt)
+        self.gripper.object_width = self.width
+        self.gripper.step(dt)
+        squeeze = self.gripper.squeeze_force()
+        if not self.held:
+            self.held = squeeze > 0.0 and np.linalg.norm(self.arm.pose()[:3] - self._start) > 0.002
+            return
+        self.force = max(0.0, self.contact_stiffness * (self._scale_z - self.tip()[2]))
+        self._load = tool_rotation(self.arm).T @ np.array([0.0, 0.0, self.force - self.mass * GRAVITY])
+        self.grip.step(self._load[[0, 2]], 2 * squeeze, dt)
+
+    def contacts(self):
+        squeeze = self.gripper.squeeze_force()
+        views = (pad_view(-1.0, self.area, (0.0, 0.0)), pad_view(1.0, self.area, (0.0, 0.0)))
+        capacity = self.grip.capacity(2 * squeeze)
+        shown = np.array([mindlin_shear(self._load[0], capacity), self._load[1],
+                          mindlin_shear(self._load[2], capacity)])
+        slip = slip_signal(self.grip.speed, self.area, self.arm.clock.period)
+        return pad_contacts((squeeze, squeeze), shown, 0.0, views, slip)
+
+    def labels(self) -> dict:
+        """What the scale says (the training label) and the true force, this tick."""
+        reading = self.force + self._rng.normal(0.0, self.scale_noise) if self.held else 0.0
+        return {"scale_force": round(reading, 2), "true_force": self.force}
+
+    def label_info(self) -> dict:
+        return {"scale_force": {"unit": "N", "noise_std": self.scale_noise, "resolution": 0.01}}
+
+    def metrics(self) -> dict:
+        return {"force on the scale (N)": round(self.force, 3),
+                "stick slid in the grip (mm)": round(float(abs(self.grip.slid[1])) * 1000, 2)}
+
+
+def build(arm, gripper, args: dict, world: dict, seed: int) -> PressScene:
+    """Scene args: mass (kg), contact_stiffness (N/m), scale_noise (N)."""
+    return PressScene(arm, gripper, mass=args.get("mass", 0.05),
+                      contact_stiffness=args.get("contact_stiffness", 4000.0),
+                      scale_noise=args.get("scale_noise", 0.1), seed=seed,
+                      grip=Grip(friction=world.get("friction", 0.8)))

@@ -1,0 +1,75 @@
+"""ForceLearn workflow: record presses on the simulated scale, train kernel ridge regression,
+and the file formats' checks (recording round trip, feature-spec and kind mismatches)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from assembly.recording import record
+from perception.learning.dataset import Recording
+from perception.learning.features import columns, feature_spec
+from perception.learning.force import press_ids, train_force
+from perception.learning.models import ModelError, TrainedModel, load_model
+
+TREE = Path(__file__).resolve().parents[1] / "trees" / "record_press.yaml"
+
+
+@pytest.fixture(scope="module")
+def presses(tmp_path_factory) -> Recording:
+    """Eight presses recorded from the press scene."""
+    tree = tmp_path_factory.mktemp("press") / "record_press.yaml"
+    tree.write_text(TREE.read_text().replace("times: 20", "times: 8"))
+    return Recording.load(record(tree, tree.with_suffix(".npz")))
+
+
+def test_a_recording_keeps_features_labels_and_its_format(presses):
+    assert presses.features.shape == (len(presses), len(columns()))
+    assert presses.header["feature_spec"] == feature_spec()
+    assert presses.header["label_info"]["scale_force"]["noise_std"] == 0.1
+    assert presses.label("true_force").max() > 8.0  # the presses really loaded the scale
+    assert press_ids(presses).max() == 7  # eight presses found from the scale reading
+    with pytest.raises(ValueError, match="no label 'substance'"):
+        presses.label("substance")
+
+
+def test_forcelearn_predicts_within_the_scale_noise(presses):
+    model, report = train_force(presses, max_samples=250)
+    assert report["r2"] > 0.99
+    # From 6 training presses the error is already of the order of the scale's own noise
+    # (the demo model, trained on 15 presses, is below it: trees/models/force_sim.report.json).
+    assert report["rmse_vs_true_force"] < 1.2 * report["scale_noise_std"]
+    assert report["rmse"] < 1.6 * report["scale_noise_std"]
+
+
+def test_loading_a_model_for_other_features_or_of_another_kind_fails_clearly(tmp_path, monkeypatch):
+    path = TrainedModel("force", estimator=None, info={}).save(tmp_path / "m.joblib")
+    with pytest.raises(ModelError, match="a 'force' model, but a 'stir' model is needed"):
+        load_model(path, "stir")
+    with pytest.raises(ModelError, match="fvtree train force"):
+        load_model(tmp_path / "missing.joblib", "force")
+    monkeypatch.setattr("perception.learning.features.GRID", (4, 4))
+    with pytest.raises(ModelError, match="different features .*grid.*retrain"):
+        load_model(path, "force")
+
+
+def test_a_recording_with_other_features_is_refused(presses, tmp_path, monkeypatch):
+    path = presses.save(tmp_path / "r.npz")
+    monkeypatch.setattr("perception.learning.features.FEATURE_VERSION", 2)
+    with pytest.raises(ValueError, match="different features"):
+        Recording.load(path)
+    (tmp_path / "junk.npz").write_bytes(b"junk")
+    with pytest.raises(ValueError, match="not an fvtree recording"):
+        Recording.load(tmp_path / "junk.npz")
+
+
+def test_concatenated_runs_keep_their_segments_apart():
+    def part(segments):
+        n = len(segments)
+        return Recording({}, np.zeros(n), np.zeros(n, np.int32), np.array(segments, np.int32), np.zeros((n, 2)),
+                         {"substance": np.array(["peas"] * n)})
+    joined = Recording.concatenate([part([-1, 0, 0, 1]), part([0, -1, 1])], {})
+    assert joined.segment.tolist() == [-1, 0, 0, 1, 2, -1, 3]
+    assert joined.run.tolist() == [0, 0, 0, 0, 1, 1, 1]
