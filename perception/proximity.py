@@ -24,10 +24,9 @@ _RANGES = (180, 256, 256)  # H, S, V value ranges of an 8-bit OpenCV HSV image
 
 @dataclass(frozen=True)
 class ProxFrame:
-    """One frame at the proximity resolution: BGR, HSV and the not-black mask."""
+    """One frame at the proximity resolution: BGR, the not-black mask and HSV histogram bins."""
 
     bgr: np.ndarray
-    hsv: np.ndarray
     not_black: np.ndarray  # uint8 255 where V > thresh_blk_v (markers and dark areas are excluded)
     bins: np.ndarray  # int, flat index of each pixel's H x S x V histogram bin
 
@@ -75,7 +74,7 @@ class ProximityVision:
         lh, ls, lv = self._luts
         n_s, n_v = self.cfg.bins[1], self.cfg.bins[2]
         bins = (lh[h] * n_s + ls[s]) * n_v + lv[v]
-        return ProxFrame(small, hsv, not_black, bins)
+        return ProxFrame(small, not_black, bins)
 
     def calibrate_background(self, frames: Sequence[np.ndarray]) -> None:
         """Background histogram: the mean over up to `n_bg_frames` frames with no object."""
@@ -98,11 +97,6 @@ class ProximityVision:
     def stop_learning(self) -> None:
         """Freeze the object model (the original calls this before grasping)."""
         self.learning = False
-
-    def clear_object(self) -> None:
-        """Forget the object model."""
-        self._models.clear()
-        self._models.append(self._zero())
 
     def add_object(self, bgr: np.ndarray, mask: np.ndarray, gain: float = 1.0) -> None:
         """Add the colours under `mask` (full-frame, nonzero = object) to the model, as a hand edit."""
