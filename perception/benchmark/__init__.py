@@ -2,7 +2,7 @@
 rendered frames with ground truth, stability sweeps, and throughput on real footage.
 
 Writes CSV + Markdown tables and PNG charts into `out_dir`; `summary.md` checks the issue's
-targets. All timings are medians on one core (`cv2.setNumThreads(1)`).
+targets. Timings are per-frame medians (best of three passes) on one core (`cv2.setNumThreads(1)`).
 """
 
 from __future__ import annotations
@@ -41,6 +41,12 @@ SWEEP_METHODS = {
 BROKEN_RMS = 0.5
 
 
+def best_median(passes: list[np.ndarray]) -> float:
+    """Per-frame time: the smallest of the passes' medians (other processes on a shared machine
+    only ever add time)."""
+    return float(min(np.median(p) for p in passes))
+
+
 def combo_config(tracker: str, detector: str, filt: str) -> FingerVisionConfig:
     """Markers-only config of one detector/tracker/filter combination at 30 fps."""
     base = "fast" if tracker == "window" else "original"
@@ -65,7 +71,7 @@ def bench_accuracy_speed(quick: bool) -> list[dict]:
             fv = calibrated(combo_config(tracker, detector, filt), seq.calibration)
             result = score(fv, seq.frames, seq.origin)
             repeat = [run_sequence(calibrated(fv.config, seq.calibration), seq.frames)[1] for _ in range(2)]
-            ms = 1000 * float(np.median(np.concatenate([result.times, *repeat])))
+            ms = 1000 * best_median([result.times, *repeat])
             rows.append({"tracker": tracker, "detector": detector, "filter": filt,
                          "markers": len(fv.marker_map), "ms_per_frame": ms, "fps": 1000 / ms,
                          "rms_px": result.rms, "tracked": result.tracked, "unflagged_swaps": result.swaps})
@@ -83,8 +89,9 @@ def bench_pipelines(quick: bool) -> list[dict]:
         fv = calibrated(config, seq.calibration)
         for sample in bench.object_samples():
             fv.proximity.add_object(sample.image, sample.truth.object_mask)
-        times = np.concatenate([run_sequence(fv, seq.frames)[1] for _ in range(3)])
-        ms = 1000 * float(np.median(times))
+        passes = [run_sequence(fv, seq.frames)[1] for _ in range(3)]
+        times = np.concatenate(passes)
+        ms = 1000 * best_median(passes)
         stages = "markers+KF+wrench" if not config.proximity.enabled else f"full, slip {config.slip.method}"
         rows.append({"preset": preset, "stages": stages, "ms_per_frame": ms, "fps": 1000 / ms,
                      "p90_ms": 1000 * float(np.percentile(times, 90))})
@@ -246,7 +253,8 @@ def summary(acc, pipes, kf, real) -> tuple[list[dict], str]:
                  ("real footage unflagged swaps", real_fast["swaps"], "0", real_fast["swaps"] == 0),
                  ("real footage fps (fast markers)", real_fast["fps"], "report", True)]
     table = [{"target": t, "measured": v, "goal": g, "met": "yes" if ok else "NO"} for t, v, g, ok in rows]
-    return table, "Medians on this machine, one core (cv2.setNumThreads(1))."
+    return table, ("Per-frame times are medians over a sequence (best of three passes), on this "
+                   "machine, one core (cv2.setNumThreads(1)).")
 
 
 def run(out_dir: Path, quick: bool = False) -> list[Path]:
