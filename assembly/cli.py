@@ -13,7 +13,7 @@ EXIT_USAGE = 2  # bad input: tree, design or cell file
 
 BENCHES = {
     "ticks": "assembly.bench_ticks",
-    "perception": "perception.benchmark",
+    "perception": "assembly.bench_perception",
     "drivers": "drivers.benchmark",
     "skills": "assembly.bench_skills",
 }

@@ -1,11 +1,11 @@
-"""`python -m perception.benchmark --out DIR [--quick]`."""
+"""`python -m assembly.bench_perception --out DIR [--quick]`."""
 
 import argparse
 from pathlib import Path
 
-from perception.benchmark import run
+from assembly.bench_perception import run
 
-parser = argparse.ArgumentParser(prog="python -m perception.benchmark", description=__doc__)
+parser = argparse.ArgumentParser(prog="python -m assembly.bench_perception", description=__doc__)
 parser.add_argument("--out", type=Path, default=Path("bench/perception"), help="output directory")
 parser.add_argument("--quick", action="store_true", help="short sequences (smoke test, < 60 s)")
 args = parser.parse_args()

@@ -13,11 +13,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from drivers.sim.camera import Appearance
-from perception.benchmark import report
-from perception.benchmark.metrics import (best_threshold, f1, jitter_and_lag, median_time, real_swaps, relative_jumps,
+from assembly.bench_perception import report
+from assembly.bench_perception.metrics import (best_threshold, f1, jitter_and_lag, median_time, real_swaps, relative_jumps,
                                           run_sequence, score)
-from perception.benchmark.scenes import Bench
+from assembly.bench_perception.scenes import Bench
+from drivers.sim.camera import Appearance
 from perception.config import FingerVisionConfig, load_config
 from perception.fingervision import FingerVision
 from perception.proximity import ProximityVision
