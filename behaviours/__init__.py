@@ -19,6 +19,8 @@ from behaviours import (  # noqa: F401  (importing registers the skills)
     in_hand_rot,
     in_hand_man,
     press_with_force,
+    stir,
+    classify_substance,
 )
 from behaviours.base import Param, ProgramSkill, Skill
 from behaviours.registry import SKILLS, lookup, register

@@ -14,7 +14,7 @@ from drivers.sim.arm import KinematicArm
 from drivers.sim.assembly_scene import AssemblyScene, Element, Plate, SceneConfig
 from drivers.sim.fingervision_model import SensorModel
 from drivers.sim.gripper import SimGripper
-from drivers.sim import followme_scene, handover_scene, hold_scene, press_scene, stick_scene  # tactile-skill scenes (issue 4)
+from drivers.sim import followme_scene, handover_scene, hold_scene, press_scene, stick_scene, stir_scene  # tactile-skill scenes (issue 4)
 from drivers.sim.plate import BeamPlate
 from perception.state import FINGERS
 
@@ -59,6 +59,7 @@ SCENES: dict[str, Callable[..., object]] = {
     "inhand_light": stick_scene.builder("inhand_light"),
     "armrot": stick_scene.builder("armrot"),
     "press": press_scene.build,
+    "stir": stir_scene.build,
 }
 
 

@@ -42,14 +42,15 @@ def pad_view(side: float, area: float, centroid_xz, orientation: float = 0.0) ->
 
 def pad_contacts(normals: tuple[float, float], load, torque_y: float = 0.0,
                  views: tuple[ObjectInfo, ObjectInfo] = (ObjectInfo(), ObjectInfo()),
-                 slip: float = 0.0) -> dict[str, FingerContact]:
+                 slip: float = 0.0, centre=None) -> dict[str, FingerContact]:
     """FingerContacts of both pads: `normals` (left, right) in N, `load` the force the object
     puts on the hand in tool axes (x and z shared equally as shear), `torque_y` (N m) the
-    torque it puts on the hand about tool y, `views` (left, right), `slip` per finger."""
+    torque it puts on the hand about tool y, `views` (left, right), `slip` per finger, and
+    `centre` the contact patch centre in image pixels (None: the image centre)."""
     out = {}
     for (finger, side), normal, view in zip(SIDES, normals, views):
         shear = np.array([0.5 * side * load[0], 0.5 * load[2]])
-        out[finger] = FingerContact(max(normal, 0.0), shear, -side * 0.5 * torque_y, None, view, slip)
+        out[finger] = FingerContact(max(normal, 0.0), shear, -side * 0.5 * torque_y, centre, view, slip)
     return out
 
 

@@ -1,0 +1,59 @@
+"""ClassifySubstance (StirLearn): stir the dipped stick along a predefined movement, then tell
+the substance from what the fingers felt, with a model trained by `fvtree train stir`."""
+
+from __future__ import annotations
+
+import numpy as np
+from py_trees.common import Status
+
+from behaviours import keys
+from behaviours.base import Param, ProgramSkill
+from behaviours.model_files import resolve_model_path
+from behaviours.registry import register
+from behaviours.stir import MOVEMENTS, next_trial, stir_steps
+from perception.learning.features import columns
+from perception.learning.models import ModelError, load_model
+from perception.learning.stir import classify
+
+
+@register
+class ClassifySubstance(ProgramSkill):
+    NAME = "classify_substance"
+    SUMMARY = "stir the dipped stick and classify the substance (StirLearn)"
+    PARAMS = {
+        "model": Param("str", "StirLearn model file (fvtree train stir)", "trees/models/stir_sim.joblib"),
+        "movement": Param("str", "stirring movement", "circle_large_slow", choices=tuple(MOVEMENTS)),
+        "duration": Param("float", "how long to stir", 4.0, "s", min=0.5, max=60.0),
+        "min_confidence": Param("float", "fail below this probability of the best class", 0.6, min=0.0, max=1.0),
+        "min_drag": Param("float", "mean marker force below this means the stick is not in anything", 0.05, "px", min=0.0),
+    }
+    READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.STIR_TRIAL)
+    WRITES = (keys.SUBSTANCE, keys.STIR_TRIAL)
+
+    def program(self):
+        try:
+            model = load_model(resolve_model_path(self.p.model), "stir")
+        except ModelError as exc:
+            return self.fail(str(exc))
+        trial = next_trial(self.read(keys.STIR_TRIAL))
+        rows, fault = yield from stir_steps(self, self.p.movement, self.p.duration, trial)
+        if fault:
+            return self.fail(fault)
+        drag = self._mean_drag(rows)
+        if drag < self.p.min_drag:
+            return self.fail(f"felt almost nothing while stirring (mean force {drag:.3f} px): "
+                             "is the stick dipped in the substance?")
+        label, probabilities = classify(model, np.asarray(rows))
+        self.write(keys.SUBSTANCE, {"label": label, "probabilities": probabilities, "movement": self.p.movement})
+        ranked = ", ".join(f"{k} {v:.2f}" for k, v in sorted(probabilities.items(), key=lambda kv: -kv[1]))
+        if probabilities[label] < self.p.min_confidence:
+            return self.fail(f"not sure which substance ({ranked}): stir again, or retrain with more trials")
+        self.feedback_message = f"{label} ({ranked})"
+        return Status.SUCCESS
+
+    @staticmethod
+    def _mean_drag(rows) -> float:
+        """Mean shear along the pads felt while stirring (px), from the force columns."""
+        names = columns()
+        shear = [names.index(f"{f}.{c}") for f in ("left", "right") for c in ("fx", "fz")]
+        return float(np.abs(np.asarray(rows)[:, shear]).mean())

@@ -1,0 +1,96 @@
+"""Stir: move a held stick through a substance along one of 8 predefined stirring movements
+(horizontal paths around the starting point), then return to it. Marks the trial on
+/task/stir_trial while stirring, so `fvtree record` can cut the training trials of StirLearn;
+`classify_substance` stirs the same way."""
+
+from __future__ import annotations
+
+import math
+from typing import Callable
+
+import numpy as np
+from py_trees.common import Status
+
+from behaviours import keys
+from behaviours.base import Param, ProgramSkill
+from behaviours.registry import register
+from perception.learning.features import tick_features
+
+
+def _circle(radius: float, period: float, sense: float = 1.0) -> Callable[[float], np.ndarray]:
+    w = 2 * math.pi / period
+    return lambda t: radius * np.array([math.cos(sense * w * t) - 1.0, math.sin(sense * w * t)])
+
+
+def _line(amplitude: float, period: float, axis: int) -> Callable[[float], np.ndarray]:
+    w = 2 * math.pi / period
+    return lambda t: amplitude * math.sin(w * t) * np.eye(2)[axis]
+
+
+def _eight(size: float, period: float) -> Callable[[float], np.ndarray]:
+    w = 2 * math.pi / period
+    return lambda t: size * np.array([math.sin(w * t), 0.5 * math.sin(2 * w * t)])
+
+
+def _spiral(radius: float, period: float, duration: float) -> Callable[[float], np.ndarray]:
+    w = 2 * math.pi / period
+    return lambda t: radius * min(t / duration, 1.0) * np.array([math.cos(w * t), math.sin(w * t)])
+
+
+# Offsets (m, base x and y) from the starting point as functions of time; all start at 0.
+MOVEMENTS: dict[str, Callable[[float], np.ndarray]] = {
+    "circle_small_slow": _circle(0.015, 2.0),
+    "circle_small_fast": _circle(0.015, 1.0, -1.0),
+    "circle_large_slow": _circle(0.03, 3.0),
+    "circle_large_fast": _circle(0.03, 1.5, -1.0),
+    "line_x": _line(0.025, 2.0, 0),
+    "line_y": _line(0.025, 2.0, 1),
+    "figure_eight": _eight(0.025, 3.0),
+    "spiral": _spiral(0.03, 1.5, 4.0),
+}
+CYCLE = "cycle"
+
+
+def next_trial(previous: dict | None) -> int:
+    return 0 if previous is None else previous["trial"] + 1
+
+
+def stir_steps(skill: ProgramSkill, movement: str, duration: float, trial: int):
+    """Follow the movement for `duration` s with velocity commands and return to the start;
+    yields once per tick and returns the per-tick feature rows felt while stirring."""
+    arm, dt = skill.cell.arm, skill.cell.clock.period
+    start, path, rows = arm.pose(), MOVEMENTS[movement], []
+    skill.write(keys.STIR_TRIAL, {"trial": trial, "movement": movement, "active": True})
+    t = 0.0
+    while t < duration:
+        rows.append(tick_features(*skill.tactile()))
+        target = start[:2] + path(t + dt)
+        arm.speed_linear(np.r_[(target - arm.pose()[:2]) / dt, 0.0, 0.0, 0.0, 0.0])
+        skill.feedback_message = f"stirring ({movement}), {t:.1f} of {duration:.1f} s"
+        t += dt
+        yield
+    skill.write(keys.STIR_TRIAL, {"trial": trial, "movement": movement, "active": False})
+    fault = yield from skill.move(start, 0.05)
+    return rows, fault
+
+
+@register
+class Stir(ProgramSkill):
+    NAME = "stir"
+    SUMMARY = "stir with the held stick along a predefined movement (StirLearn training trials)"
+    PARAMS = {
+        "movement": Param("str", "stirring movement, or 'cycle' for the next one in turn",
+                          CYCLE, choices=(CYCLE, *MOVEMENTS)),
+        "duration": Param("float", "how long to stir", 4.0, "s", min=0.5, max=60.0),
+    }
+    READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.STIR_TRIAL)
+    WRITES = (keys.STIR_TRIAL,)
+
+    def program(self):
+        trial = next_trial(self.read(keys.STIR_TRIAL))
+        movement = list(MOVEMENTS)[trial % len(MOVEMENTS)] if self.p.movement == CYCLE else self.p.movement
+        _, fault = yield from stir_steps(self, movement, self.p.duration, trial)
+        if fault:
+            return self.fail(fault)
+        self.feedback_message = f"stirred trial {trial} ({movement})"
+        return Status.SUCCESS
