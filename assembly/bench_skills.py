@@ -1,0 +1,179 @@
+"""`fvtree bench skills`: the tactile skill library measured on the simulated cell.
+
+1. FollowMe, ForceTrack+SpeedCtrl against ObjectTrack, pull and push along each tool axis:
+   tracking error and command jerk (vision is blind along the fingers' closing axis, y).
+2. In-hand rotation, torque- against slip-driven, on a heavy bar and a light pen.
+3. ForceLearn: test error against the number of training presses.
+4. StirLearn: f1 of the paper's MLP on held-out trials against the training-set size.
+Writes skills.csv (benchmark, case, metric, value), skills.md and skills.png.
+"""
+
+from __future__ import annotations
+
+import csv
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from assembly.loader import build, load_tree
+from assembly.recording import record
+from assembly.runner import Runner, clear_blackboard
+from drivers.cell import load_cell
+from perception.learning.dataset import Recording
+
+TREES = Path(__file__).resolve().parents[1] / "trees"
+
+
+def run_tree_text(text: str, scene_args: dict, seed: int = 0) -> tuple[str, dict]:
+    """Run a tree given as YAML text on the simulated cell; (status, scene metrics)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "tree.yaml"
+        path.write_text(text)
+        doc = load_tree(path)
+    clear_blackboard()
+    cell = load_cell("sim", doc.tick_hz, doc.scene, scene_args, seed=seed)
+    result = Runner(build(doc), cell).run(max_time=600.0)
+    return result.status, cell.world.metrics()
+
+
+def followme(rows: list) -> None:
+    for skill in ("force_track", "object_track"):
+        text = (TREES / f"{skill}.yaml").read_text()
+        for axis in "xyz":
+            for direction in ("pull", "push"):
+                status, m = run_tree_text(text, {"axis": axis, "direction": direction})
+                case = f"{skill} {axis} {direction}"
+                rows += [("followme", case, "status", status),
+                         ("followme", case, "tracking error rms (mm)", m["tracking error rms (mm)"]),
+                         ("followme", case, "tracking error final (mm)", m["tracking error final (mm)"]),
+                         ("followme", case, "command jerk rms (m/s^3)", m["command jerk rms (m/s^3)"])]
+
+
+def inhand(rows: list) -> None:
+    base = (TREES / "in_hand_rot.yaml").read_text()
+    for scene, squeeze in (("inhand", 0.005), ("inhand_light", 0.001)):
+        for variant in ("torque", "slip"):
+            text = (base.replace("scene: inhand", f"scene: {scene}").replace("variant: slip", f"variant: {variant}")
+                    .replace("name: grasp}", f"name: grasp, params: {{squeeze: {squeeze}}}}}"))
+            status, m = run_tree_text(text, {})
+            case = f"{variant} {'heavy bar' if scene == 'inhand' else 'light pen'}"
+            rows += [("in_hand_rot", case, "status", status),
+                     ("in_hand_rot", case, "turned (deg, target 60)", m["turned in the hand (deg)"]),
+                     ("in_hand_rot", case, "dropped", m["stick dropped"])]
+
+
+def forcelearn(rows: list, work: Path, quick: bool) -> None:
+    from perception.learning.force import fit_force, marker_columns, press_ids, split_presses
+
+    rec = Recording.load(record(TREES / "record_press.yaml", work / "press.npz"))
+    x, y, truth = rec.features[:, marker_columns()], rec.label("scale_force").astype(float), rec.labels["true_force"]
+    presses = press_ids(rec)
+    train, test = split_presses(presses)
+    train_presses = np.unique(presses[train])
+    for n in ((2, 6, 15) if quick else (2, 4, 6, 10, 15)):
+        use = train & np.isin(presses, train_presses[:n])
+        model, _ = fit_force(x[use], y[use], presses[use], max_samples=300 if quick else 600)
+        predicted = model.predict(x[test])
+        rows += [("forcelearn", f"{n} presses", "rmse vs scale (N)", round(float(np.sqrt(np.mean((predicted - y[test]) ** 2))), 4)),
+                 ("forcelearn", f"{n} presses", "rmse vs true force (N)", round(float(np.sqrt(np.mean((predicted - truth[test]) ** 2))), 4))]
+    rows.append(("forcelearn", "scale", "noise std (N)", rec.header["label_info"]["scale_force"]["noise_std"]))
+
+
+def stirlearn(rows: list, work: Path, quick: bool) -> None:
+    from sklearn.metrics import f1_score
+
+    from perception.learning.stir import PAPER_MODEL, classifiers, split, trials
+
+    tree = work / "record_stir.yaml"
+    tree.write_text((TREES / "record_stir.yaml").read_text().replace("times: 40", f"times: {16 if quick else 40}"))
+    x, y = trials(Recording.load(record(tree, work / "stir.npz")))
+    train, test = split(y)
+    rng = np.random.default_rng(0)
+    by_class = [rng.permutation(train[y[train] == s]) for s in sorted(set(y))]
+    smallest = min(len(c) for c in by_class)
+    for n in sorted({2, 4, 8, smallest} if quick else {2, 4, 8, 16, smallest}):
+        use = np.concatenate([c[:n] for c in by_class])
+        model = classifiers()[PAPER_MODEL].fit(x[use], y[use])
+        f1 = f1_score(y[test], model.predict(x[test]), average="macro")
+        rows.append(("stirlearn", f"{len(use)} training trials", f"f1 on {len(test)} held-out trials", round(float(f1), 4)))
+
+
+def _values(rows, bench, metric) -> dict:
+    return {case: value for b, case, m, value in rows if b == bench and m == metric}
+
+
+def plot(rows: list, path: Path) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 2, figsize=(13, 8))
+    err, jerk = _values(rows, "followme", "tracking error rms (mm)"), _values(rows, "followme", "command jerk rms (m/s^3)")
+    cases = [f"{a} {d}" for a in "xyz" for d in ("pull", "push")]
+    width = 0.4
+    ax = axes[0, 0]
+    for i, skill in enumerate(("force_track", "object_track")):
+        ax.bar(np.arange(6) + (i - 0.5) * width, [err[f"{skill} {c}"] for c in cases], width, label=skill)
+    ax.set(xticks=range(6), xticklabels=cases, ylabel="tracking error rms [mm]", yscale="log",
+           title="FollowMe: tracking error (y = closing axis, vision blind)")
+    twin = ax.twinx()
+    twin.plot(np.arange(6) - width / 2, [jerk[f"force_track {c}"] for c in cases], "o", color="C0")
+    twin.plot(np.arange(6) + width / 2, [jerk[f"object_track {c}"] for c in cases], "o", color="C1")
+    twin.set_ylabel("command jerk rms [m/s^3] (dots)")
+    ax.legend(loc="upper left")
+    turned = _values(rows, "in_hand_rot", "turned (deg, target 60)")
+    status = _values(rows, "in_hand_rot", "status")
+    ax = axes[0, 1]
+    names = list(turned)
+    ax.bar(names, [turned[n] for n in names], color=["C2" if status[n] == "SUCCESS" else "C3" for n in names])
+    ax.axhline(60, color="0.4", ls="--", lw=1)
+    ax.set(ylabel="turned in the hand [deg]", title="InHandRot: green reached the 60 deg target, red failed")
+    ax = axes[1, 0]
+    vs_true, vs_scale = _values(rows, "forcelearn", "rmse vs true force (N)"), _values(rows, "forcelearn", "rmse vs scale (N)")
+    n = [int(k.split()[0]) for k in vs_true]
+    ax.plot(n, list(vs_true.values()), "o-", label="against the true force")
+    ax.plot(n, list(vs_scale.values()), "s-", label="against the scale reading")
+    noise = _values(rows, "forcelearn", "noise std (N)")["scale"]
+    ax.axhline(noise, color="0.4", ls="--", lw=1, label="scale noise std")
+    ax.set(xlabel="training presses", ylabel="test RMSE [N]", yscale="log", title="ForceLearn")
+    ax.legend()
+    ax = axes[1, 1]
+    f1 = {k: v for b, k, m, v in rows if b == "stirlearn"}
+    ax.plot([int(k.split()[0]) for k in f1], list(f1.values()), "o-")
+    ax.axhline(0.95, color="0.4", ls="--", lw=1, label="target 0.95")
+    ax.set(xlabel="training trials", ylabel="macro f1 (held out)", ylim=(0, 1.05), title="StirLearn (MLP 3x10 logistic)")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def markdown(rows: list) -> str:
+    lines = ["# Tactile skill benchmarks (simulated cell)", ""]
+    for bench in dict.fromkeys(b for b, *_ in rows):
+        metrics = list(dict.fromkeys(m for b, _, m, _ in rows if b == bench))
+        cases = list(dict.fromkeys(c for b, c, _, _ in rows if b == bench))
+        table = {(c, m): v for b, c, m, v in rows if b == bench}
+        lines += [f"## {bench}", "", "| case | " + " | ".join(metrics) + " |", "|---" * (len(metrics) + 1) + "|"]
+        lines += [f"| {c} | " + " | ".join(str(table.get((c, m), "")) for m in metrics) + " |" for c in cases]
+        lines.append("")
+    return "\n".join(lines)
+
+
+def run(out_dir: Path, quick: bool = False) -> list[Path]:
+    """Run every benchmark; write the CSV, Markdown and PNG into `out_dir`."""
+    rows: list[tuple] = []
+    followme(rows)
+    inhand(rows)
+    with tempfile.TemporaryDirectory() as tmp:
+        forcelearn(rows, Path(tmp), quick)
+        stirlearn(rows, Path(tmp), quick)
+    table = out_dir / "skills.csv"
+    with open(table, "w", newline="") as f:
+        csv.writer(f).writerows([("benchmark", "case", "metric", "value"), *rows])
+    md = out_dir / "skills.md"
+    md.write_text(markdown(rows))
+    return [table, md, plot(rows, out_dir / "skills.png")]
