@@ -38,7 +38,8 @@ class ArmRot(ProgramSkill):
         quiet = 0
         while quiet < self.p.settle:
             torque = hand_torque(*self.tactile())
-            turned = math.degrees(angle_between(start, arm.pose()))
+            pose = arm.pose()
+            turned = math.degrees(angle_between(start, pose))
             if turned > self.p.max_angle:
                 arm.stop()
                 return self.fail(f"turned {turned:.0f} deg and the torque is still {torque:.2f} px: "
@@ -47,7 +48,7 @@ class ArmRot(ProgramSkill):
                 return self.fail(f"arm fault: {arm.fault()}")
             quiet = quiet + 1 if abs(torque) < self.p.eps else 0
             rate = float(np.clip(self.p.gain * torque, -self.p.max_speed, self.p.max_speed))
-            arm.speed_linear(np.r_[0.0, 0.0, 0.0, rotation(arm.pose())[:, 1] * rate])
+            arm.speed_linear(np.r_[0.0, 0.0, 0.0, rotation(pose)[:, 1] * rate])
             self.feedback_message = f"torque {torque:.2f} px, turned {turned:.1f} deg"
             yield
         arm.stop()

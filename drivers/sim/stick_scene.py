@@ -57,9 +57,11 @@ class StickScene:
 
     def gravity_torque(self) -> float:
         """Torque (N m) gravity puts on the stick about the grasp, around tool y."""
-        r = self.com * self.direction()
-        torque = np.cross(r, [0.0, 0.0, -self.mass * GRAVITY])
-        return float(torque @ tool_rotation(self.arm)[:, 1])
+        rot = tool_rotation(self.arm)
+        r = self.com * (rot @ np.array([math.cos(self.angle), 0.0, math.sin(self.angle)]))
+        weight = self.mass * GRAVITY
+        torque = np.array([-r[1] * weight, r[0] * weight, 0.0])  # r x (0, 0, -weight)
+        return float(torque @ rot[:, 1])
 
     def step(self, dt: float) -> None:
         self.arm.step(dt)
