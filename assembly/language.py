@@ -129,7 +129,20 @@ class Validator:
             return None
         spec = NodeSpec(kind, name, path, {}, [], node.file, node.line, type_)
         handler = getattr(self, f"_{kind}")
-        return handler(spec, node, subs, stack)
+        return handler(spec, self._with_params(node, kind, subs, spec), subs, stack)
+
+    _SUBSTITUTED_ELSEWHERE = {"children", "child", "params", "while", "key", "value"}
+
+    def _with_params(self, node: Located, kind: str, subs: dict, spec: NodeSpec) -> Located:
+        """The node with `$param` values of its own fields (e.g. `times: $count`) filled in."""
+        fields = [k for k in node if k != kind and k not in self._SUBSTITUTED_ELSEWHERE]
+        if not any(isinstance(node[k], (str, list)) for k in fields):
+            return node
+        out = Located(node)
+        out.file, out.line, out.key_lines = node.file, node.line, node.key_lines
+        for key in fields:
+            out[key] = self._substitute(node[key], subs, spec, node)
+        return out
 
     def _children(self, spec, node, subs, stack, key="children"):
         items = node[key]

@@ -180,3 +180,21 @@ def test_cli_validate_exit_codes(tree_file, capsys):
     assert main(["validate", str(bad)]) == 2
     err = capsys.readouterr().err
     assert "unknown skill 'mvoe_to'" in err and "Traceback" not in err
+
+
+def test_subtree_params_reach_decorator_fields():
+    text = """\
+version: 1
+name: t
+subtrees:
+  again:
+    params: {count: int, limit: {type: float, default: 2.0}}
+    root:
+      repeat: loop
+      times: $count
+      child: {timeout: limit, seconds: $limit, child: {skill: move_to, name: up, params: {offset: [0, 0, 0.01]}}}
+root: {subtree: again, name: thrice, params: {count: 3}}
+"""
+    built = build(load_tree(text=text, name="s.yaml"))
+    assert built.nodes["thrice/loop"].num_success == 3
+    assert built.nodes["thrice/loop/limit"].duration == 2.0
