@@ -108,11 +108,11 @@ def run(out_dir: Path, quick: bool = False) -> list[Path]:
     rows = []
     for name, values in timed.parts.items():
         v = np.array(values) * us
-        rows.append(("stage", name, len(v), float(np.median(v)), float(np.percentile(v, 95)), float(v.max())))
+        rows.append(("stage µs", name, len(v), float(np.median(v)), float(np.percentile(v, 95)), float(v.max())))
     called = {p: v for p, v in timed.behaviour_times.items() if v}
     for path, values in sorted(called.items(), key=lambda kv: -np.median(kv[1])):
         v = np.array(values) * us
-        rows.append(("behaviour", path.split("/")[-1], len(v), float(np.median(v)),
+        rows.append(("behaviour µs", path.split("/")[-1], len(v), float(np.median(v)),
                      float(np.percentile(v, 95)), float(v.max())))
     for noise, values in regrets.items():
         v = np.array(values) * 100
@@ -121,8 +121,9 @@ def run(out_dir: Path, quick: bool = False) -> list[Path]:
     csv_path = out_dir / "ticks.csv"
     with open(csv_path, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["group", "name", "calls", "median_us", "p95_us", "max_us"])
-        w.writerows((g, n, c, f"{m:.1f}", f"{p:.1f}", f"{x:.1f}") for g, n, c, m, p, x in rows)
+        w.writerow(["group", "name", "count", "median", "p95", "max", "unit"])
+        w.writerows((g, n, c, f"{m:.4g}", f"{p:.4g}", f"{x:.4g}", "%" if g == "regret %" else "us")
+                    for g, n, c, m, p, x in rows)
 
     tree_median = statistics.median(timed.parts["tree tick"]) * 1e3
     rtf = statistics.median(factors)
@@ -138,9 +139,9 @@ def run(out_dir: Path, quick: bool = False) -> list[Path]:
         f"(target < 1 %); with 5 % noise: max {np.max(regrets[0.05]) * 100:.3f} %",
         f"- ticks per run: {timed.ticks} at {doc.tick_hz:g} Hz",
         "",
-        "| group | name | calls / samples | median | p95 | max |",
+        "| group | name | count | median | p95 | max |",
         "|---|---|---:|---:|---:|---:|",
-        *[f"| {g} | {n} | {c} | {m:.1f} | {p:.1f} | {x:.1f} |" for g, n, c, m, p, x in rows],
+        *[f"| {g} | {n} | {c} | {m:.4g} | {p:.4g} | {x:.4g} |" for g, n, c, m, p, x in rows],
         "",
     ]
     md_path.write_text("\n".join(md))
@@ -151,14 +152,14 @@ def run(out_dir: Path, quick: bool = False) -> list[Path]:
     import matplotlib.pyplot as plt
 
     fig, (left, right) = plt.subplots(1, 2, figsize=(12, 4.5))
-    stage = [r for r in rows if r[0] == "stage" and r[1] != "whole tick"]
+    stage = [r for r in rows if r[0] == "stage µs" and r[1] != "whole tick"]
     left.bar([r[1] for r in stage], [r[3] for r in stage], color="C0", label="median")
     left.bar([r[1] for r in stage], [r[4] - r[3] for r in stage], bottom=[r[3] for r in stage],
              color="C0", alpha=0.3, label="to p95")
     left.set_ylabel("µs per tick")
     left.set_title(f"tick parts (tree tick median {tree_median * 1000:.0f} µs; RTF {rtf:.0f}x)")
     left.legend()
-    beh = [r for r in rows if r[0] == "behaviour"]
+    beh = [r for r in rows if r[0] == "behaviour µs"]
     right.barh([r[1] for r in beh][::-1], [r[3] for r in beh][::-1], color="C1")
     right.set_xlabel("median µs per update")
     right.set_title("per behaviour (own update only)")

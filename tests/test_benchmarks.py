@@ -1,0 +1,38 @@
+"""Smoke tests of the benchmark commands in quick mode: they run and write their tables and
+charts. Timings are not asserted (benchmarks show speed; tests show behaviour)."""
+
+from __future__ import annotations
+
+import csv
+
+from assembly.cli import main
+
+
+def read_csv(path):
+    with open(path) as f:
+        return list(csv.DictReader(f))
+
+
+def test_bench_ticks(tmp_path, capsys):
+    assert main(["bench", "ticks", "--quick", "--out", str(tmp_path)]) == 0
+    rows = read_csv(tmp_path / "ticks.csv")
+    names = {r["name"] for r in rows}
+    assert {"perception stage", "tree tick", "cell step", "whole tick", "find_load", "grasp"} <= names
+    regret = [r for r in rows if r["group"] == "regret %"]
+    assert len(regret) == 2 and all(r["unit"] == "%" and float(r["max"]) < 1.0 for r in regret)
+    assert (tmp_path / "ticks.png").stat().st_size > 5_000
+    assert "tree tick median" in (tmp_path / "ticks.md").read_text()
+
+
+def test_bench_skills(tmp_path):
+    assert main(["bench", "skills", "--quick", "--out", str(tmp_path)]) == 0
+    written = {p.name for p in tmp_path.iterdir()}
+    assert {"skills.csv", "skills.md", "skills.png"} <= written
+    assert read_csv(tmp_path / "skills.csv")
+
+
+def test_bench_perception(tmp_path):
+    assert main(["bench", "perception", "--quick", "--out", str(tmp_path)]) == 0
+    summary = read_csv(tmp_path / "summary.csv")
+    assert len(summary) >= 8 and all(r["measured"] not in ("", "nan") for r in summary)
+    assert (tmp_path / "accuracy_speed.png").exists()
