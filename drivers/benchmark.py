@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,7 +26,8 @@ from drivers.emulators import backdoor
 from drivers.emulators.launch import EmulatorProcess
 from drivers.ur import UrArm, UrConfig
 
-CONTROLLERS = {"e-Series (500 Hz)": ("127.0.6.2", []), "CB3 (125 Hz)": ("127.0.6.3", ["--cb3"])}
+_NET = f"127.6.{os.getpid() % 250}"  # per process: two benches at once must not share emulators
+CONTROLLERS = {"e-Series (500 Hz)": (f"{_NET}.2", []), "CB3 (125 Hz)": (f"{_NET}.3", ["--cb3"])}
 
 
 @dataclass

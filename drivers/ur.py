@@ -311,16 +311,29 @@ class UrArm:
         return True
 
     def _read_state(self) -> dict[str, Any]:
+        """One consistent snapshot: ur_rtde has no multi-field read, so re-read when a new
+        packet arrived in between (the timestamp changed)."""
         r = self._receive
-        return {"timestamp": r.getTimestamp(), "pose": r.getActualTCPPose(),
-                "speed": r.getActualTCPSpeed(), "force": r.getActualTCPForce(),
-                "safety_bits": int(r.getSafetyStatusBits()), "runtime": int(r.getRuntimeState())}
+        for _ in range(3):
+            stamp = r.getTimestamp()
+            snap = {"connected": r.isConnected(), "timestamp": stamp, "pose": r.getActualTCPPose(),
+                    "speed": r.getActualTCPSpeed(), "force": r.getActualTCPForce(),
+                    "safety_bits": int(r.getSafetyStatusBits()), "runtime": int(r.getRuntimeState())}
+            if r.getTimestamp() == stamp:
+                break
+        return snap
 
     def _watch(self) -> None:
         """Monitor thread: fresh data, safety stops, script state; latch the first fault."""
         period = 1.0 / self.control_rate
         while self._running:
-            snap = self._read_state()
+            try:
+                snap = self._read_state()
+            except Exception as exc:  # a getter throwing after a link loss must not kill the monitor
+                self._latch(f"UR {self.config.host}: lost RTDE link - cannot read the receive "
+                            f"interface ({exc}); restart the cell to reconnect")
+                time.sleep(period)
+                continue
             now = time.monotonic()
             if snap["timestamp"] != self._last_timestamp:
                 self._last_timestamp, self._last_fresh = snap["timestamp"], now
@@ -335,9 +348,12 @@ class UrArm:
 
     def _check(self, snap: dict[str, Any], age: float) -> str | None:
         host = self.config.host
-        if age > self.config.link_timeout:
-            return (f"UR {host}: lost RTDE link - no new controller data for {age:.3f} s "
-                    "(cable, network or controller down); restart the cell to reconnect")
+        if not snap["connected"] or age > self.config.link_timeout:
+            # isConnected() can claim a dead link is up, so the data age is the real test; when it
+            # does admit the socket closed, that is the earliest sign.
+            why = "connection closed" if not snap["connected"] else f"no new controller data for {age:.3f} s"
+            return (f"UR {host}: lost RTDE link - {why} (cable, network or controller down); "
+                    "restart the cell to reconnect")
         if snap["safety_bits"] & (ESTOP_BIT | ROBOT_ESTOP_BIT):
             return (f"UR {host}: emergency stop - release the e-stop, power on the arm on the "
                     "teach pendant, then restart the cell")

@@ -269,6 +269,7 @@ class UrModel:
 
     def _integrate(self, dt: float) -> None:
         before = self.pose.copy()
+        velocity_driven = self._mode in ("speed", "contact", "stop")
         if self._mode == "move":
             self._integrate_move(dt)
         elif self._mode in ("speed", "contact"):
@@ -293,7 +294,7 @@ class UrModel:
                 self._mode = "idle"
         if self._mode in ("idle",) and self._blocking == "stop":
             self._complete_blocking()
-        if self._mode not in ("speed", "contact", "stop"):
+        if not velocity_driven:
             self.velocity[:3] = (self.pose[:3] - before[:3]) / dt  # angular rate not reported here
             self.velocity[3:] = 0.0
 

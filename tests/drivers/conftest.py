@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import os
 import time
 
 import pytest
@@ -15,8 +16,9 @@ _hosts = itertools.count(10)
 
 
 def next_host() -> str:
-    """A fresh 127.0.5.x address per emulator (the UR ports are fixed, so addresses must differ)."""
-    return f"127.0.5.{next(_hosts)}"
+    """A fresh loopback address per emulator: the UR ports are fixed, so addresses must differ,
+    also between test sessions running at the same time (hence the process id)."""
+    return f"127.5.{os.getpid() % 250}.{next(_hosts) % 250 + 1}"
 
 
 class Emulator:

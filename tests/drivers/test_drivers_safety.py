@@ -138,8 +138,8 @@ def test_watchdog_thread_stops_the_arm_when_the_tick_loop_hangs():
         time.sleep(0.15)  # the cell is built but the tree has not started: nothing may trip yet
         assert safe.fault() is None
         safe.speed_linear(np.array([0.02, 0, 0, 0, 0, 0]))
-        safe.kick()
-        hung_at = clock.now()  # no more ticks, no supervise() calls from the loop
+        hung_at = clock.now()
+        safe.kick()  # the last tick: no more ticks, no supervise() calls from the loop
         assert wait_until(lambda: safe.fault() is not None, 2.0)
         assert safe.fault().startswith("watchdog")
         assert not arm.is_moving()
