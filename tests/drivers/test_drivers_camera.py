@@ -7,7 +7,7 @@ import time
 import cv2
 import numpy as np
 import pytest
-from conftest import next_host, wait_until
+from drivers_testkit import next_host, wait_until
 
 from drivers.camera import CameraConfig, OpenCvCamera
 from drivers.emulators.mjpeg import MjpegServer, synthetic_frame

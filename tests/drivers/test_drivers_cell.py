@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from conftest import next_host
+from drivers_testkit import next_host
 
 from drivers import benchmark
 from drivers.cell import CELLS_DIR, CellFileError, load_cell, read_cell_file

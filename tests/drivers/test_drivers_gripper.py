@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import pytest
-from conftest import next_host, wait_until
+from drivers_testkit import next_host, wait_until
 from pymodbus.client import ModbusTcpClient
 
 from drivers.gripper_modbus import RobotiqConfig, RobotiqGripper

@@ -6,7 +6,7 @@ import time
 
 import numpy as np
 import pytest
-from conftest import wait_until
+from drivers_testkit import wait_until
 
 from drivers.clock import SimClock, WallClock
 from drivers.protocols import DriverFault

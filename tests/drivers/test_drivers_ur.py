@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import rtde_control
 import rtde_receive
-from conftest import next_host, wait_until
+from drivers_testkit import next_host, wait_until
 
 from drivers.protocols import DriverFault
 from drivers.safety import SafeArm, SafetyLimits

@@ -1,0 +1,43 @@
+"""Helpers for the driver tests (a uniquely named module: conftest.py names are ambiguous)."""
+
+from __future__ import annotations
+
+import itertools
+import os
+import time
+
+from drivers.emulators import backdoor
+from drivers.emulators.launch import EmulatorProcess
+
+_hosts = itertools.count(10)
+
+
+def next_host() -> str:
+    """A fresh loopback address per emulator: the UR ports are fixed, so addresses must differ,
+    also between test sessions running at the same time (hence the process id)."""
+    return f"127.5.{os.getpid() % 250}.{next(_hosts) % 250 + 1}"
+
+
+class Emulator:
+    """A running emulator: its address and its back door."""
+
+    def __init__(self, process: EmulatorProcess, host: str, backdoor_port: int):
+        self.process, self.host, self.backdoor_port = process, host, backdoor_port
+
+    def call(self, line: str) -> dict:
+        reply = backdoor.call(self.host, self.backdoor_port, line)
+        assert reply.get("ok"), reply
+        return reply
+
+    def state(self) -> dict:
+        return self.call("state")
+
+
+def wait_until(predicate, timeout: float, step: float = 0.005) -> bool:
+    """Poll `predicate` until it holds or `timeout` s pass; returns whether it held."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(step)
+    return bool(predicate())
