@@ -123,6 +123,7 @@ class UrArm:
         self._fault: str | None = None
         self.fault_at: float | None = None  # time.monotonic() when the fault was detected
         self._mode = "idle"  # idle | move | speed | servo | contact
+        self._twist: list[float] | None = None  # the held speedL twist, re-sent every tick
         self._contact: _Job | None = None
         self._contact_deadline = 0.0
         self._restart_script = False  # we stopped the program ourselves; re-upload before the next command
@@ -169,6 +170,7 @@ class UrArm:
         v = _vec(twist)
         self._command("speedL", "speed" if any(v) else "idle", self._control.speedL, v,
                       self.config.acceleration, 0.0)
+        self._twist = v if any(v) else None
 
     def servo_linear(self, pose: np.ndarray) -> None:
         """Stream one servo target; call once per control period (1 / control_rate)."""
@@ -243,7 +245,13 @@ class UrArm:
                 if not self._watchdog_armed:
                     self._call("setWatchdog", self._control.setWatchdog, self.config.watchdog_hz)
                     self._watchdog_armed = True
-                self._call("kickWatchdog", self._control.kickWatchdog)
+                if self._mode == "speed" and self._twist is not None:
+                    # speedL is a streamed command: ur_rtde does not wait for the controller to
+                    # read it, and a bare kick rewrites the same register, so a held twist is
+                    # sent again every tick (which also feeds the watchdog).
+                    self._call("speedL", self._control.speedL, self._twist, self.config.acceleration, 0.0)
+                else:
+                    self._call("kickWatchdog", self._control.kickWatchdog)
             except DriverFault as exc:
                 self._latch(str(exc))
 
