@@ -79,6 +79,7 @@ class SafeArm:
         self._watchdog: threading.Thread | None = None
         self._watchdog_period: float | None = None  # set by start_watchdog
         self._watchdog_stop = threading.Event()
+        self._controller_watchdog = isinstance(arm, ControllerWatchdog)  # checked once: it is slow
 
     # --- state passes through -------------------------------------------------------------
     def pose(self) -> np.ndarray:
@@ -146,7 +147,7 @@ class SafeArm:
         self._last_kick = self.clock.now()
         if self._watchdog_period is not None and self._watchdog is None:
             self._start_watchdog_thread(self._watchdog_period)
-        if not self._fault and isinstance(self.inner, ControllerWatchdog):
+        if not self._fault and self._controller_watchdog:
             self.inner.kick_watchdog()
 
     def start_watchdog(self, period: float = 0.01) -> None:
