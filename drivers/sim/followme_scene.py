@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drivers.sim.arm import KinematicArm
-from drivers.sim.grip import Grip, empty_contacts, pad_contacts, pad_view, slip_signal, tool_rotation
+from drivers.sim.grip import Grip, empty_contacts, pad_contacts, pad_view, slip_signal, step_hand, tool_rotation
 from drivers.sim.gripper import SimGripper
 
 AXES = "xyz"
@@ -71,9 +71,7 @@ class FollowMeScene:
         return self._tcp0 + self._lead * min_jerk((self._t - self._grasped_at - self.start_delay) / self.move_time)
 
     def step(self, dt: float) -> None:
-        self.arm.step(dt)
-        self.gripper.object_width = None if self.lost else self.width
-        self.gripper.step(dt)
+        step_hand(self.arm, self.gripper, None if self.lost else self.width, dt)
         self._t += dt
         squeeze = self.gripper.squeeze_force()
         if self._grasped_at is None and squeeze > 0.0:

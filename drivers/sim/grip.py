@@ -26,6 +26,20 @@ def tool_rotation(arm) -> np.ndarray:
     return rotvec_to_matrix(arm.pose()[3:])
 
 
+def step_hand(arm, gripper, object_width: float | None, dt: float) -> float:
+    """Integrate arm and gripper for one tick with an object `object_width` wide (None: nothing)
+    between the pads; returns the squeeze the gels put on it (N)."""
+    arm.step(dt)
+    gripper.object_width = object_width
+    gripper.step(dt)
+    return gripper.squeeze_force()
+
+
+def picked_up(arm, start, squeeze: float) -> bool:
+    """A squeezed object counts as held once the hand has carried it 2 mm from `start`."""
+    return squeeze > 0.0 and float(np.linalg.norm(arm.pose()[:3] - start)) > 0.002
+
+
 def slip_signal(speed: float, area: float, dt: float) -> float:
     """Per-finger slip (mv_s scale): the share of the visible object area that changes between
     frames, full once the object moves SLIP_TRAVEL per frame."""

@@ -13,7 +13,7 @@ import numpy as np
 
 from drivers.sim.arm import KinematicArm
 from drivers.sim.fingervision_model import FingerContact
-from drivers.sim.grip import Grip, empty_contacts, pad_contacts, pad_view, slip_signal, tool_rotation
+from drivers.sim.grip import Grip, empty_contacts, pad_contacts, pad_view, slip_signal, step_hand, tool_rotation
 from drivers.sim.gripper import SimGripper
 
 GRAVITY = 9.81
@@ -52,9 +52,7 @@ class HandoverScene:
         return self.phase in ("offer", "robot", "taking")
 
     def step(self, dt: float) -> None:
-        self.arm.step(dt)
-        self.gripper.object_width = self.width if self._between() else None
-        self.gripper.step(dt)
+        step_hand(self.arm, self.gripper, self.width if self._between() else None, dt)
         self._t += dt
         squeeze = self.gripper.squeeze_force()
         weight = self.mass * GRAVITY

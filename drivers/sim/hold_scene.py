@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drivers.sim.arm import KinematicArm
-from drivers.sim.grip import Grip, empty_contacts, pad_contacts, pad_view, slip_signal, tool_rotation
+from drivers.sim.grip import Grip, empty_contacts, pad_contacts, pad_view, slip_signal, step_hand, tool_rotation
 from drivers.sim.gripper import SimGripper
 
 GRAVITY = 9.81
@@ -42,9 +42,7 @@ class HoldScene:
         return self.mass * GRAVITY + ramp * self.extra_load
 
     def step(self, dt: float) -> None:
-        self.arm.step(dt)
-        self.gripper.object_width = None if self.dropped else self.width
-        self.gripper.step(dt)
+        step_hand(self.arm, self.gripper, None if self.dropped else self.width, dt)
         self._t += dt
         if self.dropped:
             return

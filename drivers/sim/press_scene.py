@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drivers.sim.arm import KinematicArm
-from drivers.sim.grip import Grip, pad_contacts, pad_view, slip_signal, tool_rotation
+from drivers.sim.grip import Grip, pad_contacts, pad_view, picked_up, slip_signal, step_hand, tool_rotation
 from drivers.sim.gripper import SimGripper
 
 GRAVITY = 9.81
@@ -59,12 +59,9 @@ class PressScene:
         return self.arm.pose()[:3] + tool_rotation(self.arm)[:, 2] * (self.length + self.grip.slid[1])
 
     def step(self, dt: float) -> None:
-        self.arm.step(dt)
-        self.gripper.object_width = self.width
-        self.gripper.step(dt)
-        squeeze = self.gripper.squeeze_force()
+        squeeze = step_hand(self.arm, self.gripper, self.width, dt)
         if not self.held:
-            self.held = squeeze > 0.0 and np.linalg.norm(self.arm.pose()[:3] - self._start) > 0.002
+            self.held = picked_up(self.arm, self._start, squeeze)
             return
         self.force = max(0.0, self.contact_stiffness * (self._scale_z - self.tip()[2]))
         self._load = tool_rotation(self.arm).T @ np.array([0.0, 0.0, self.force - self.mass * GRAVITY])

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from drivers.sim.arm import KinematicArm
-from drivers.sim.grip import empty_contacts, pad_contacts, pad_view, slip_signal, tool_rotation
+from drivers.sim.grip import empty_contacts, pad_contacts, pad_view, slip_signal, step_hand, tool_rotation
 from drivers.sim.gripper import SimGripper
 
 GRAVITY = 9.81
@@ -64,10 +64,7 @@ class StickScene:
         return float(torque @ rot[:, 1])
 
     def step(self, dt: float) -> None:
-        self.arm.step(dt)
-        self.gripper.object_width = None if self.dropped else self.width
-        self.gripper.step(dt)
-        squeeze = self.gripper.squeeze_force()
+        squeeze = step_hand(self.arm, self.gripper, None if self.dropped else self.width, dt)
         self._rate = 0.0
         if self.dropped:
             return

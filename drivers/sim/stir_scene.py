@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drivers.sim.arm import KinematicArm
-from drivers.sim.grip import pad_contacts, pad_view, slip_signal, tool_rotation
+from drivers.sim.grip import pad_contacts, pad_view, picked_up, slip_signal, step_hand, tool_rotation
 from drivers.sim.gripper import SimGripper
 
 
@@ -86,12 +86,9 @@ class StirScene:
         return self.arm.pose()[:3] + tool_rotation(self.arm)[:, 2] * self.length
 
     def step(self, dt: float) -> None:
-        self.arm.step(dt)
-        self.gripper.object_width = self.width
-        self.gripper.step(dt)
-        squeeze = self.gripper.squeeze_force()
+        squeeze = step_hand(self.arm, self.gripper, self.width, dt)
         if not self.held:
-            self.held = squeeze > 0.0 and np.linalg.norm(self.arm.pose()[:3] - self._start) > 0.002
+            self.held = picked_up(self.arm, self._start, squeeze)
             return
         tip = self.tip()
         velocity = np.zeros(3) if self._last_tip is None else (tip - self._last_tip) / dt
