@@ -17,7 +17,7 @@ class VisScan(ProgramSkill):
     NAME = "vis_scan"
     SUMMARY = "measure the element's length by finding both ends with proximity vision"
     PARAMS = {
-        "step": Param("float", "scan step per tick", 0.002, "m", min=1e-4, max=0.02),
+        "step": Param("float", "scan distance per tick (sets the scan speed)", 0.002, "m", min=1e-4, max=0.02),
         "edge_fraction": Param("float", "share of the full-view area at which the edge is declared", 0.5, min=0.05, max=0.95),
         "max_travel": Param("float", "longest scan in each direction", 0.5, "m", min=0.01),
         "length_tolerance": Param("float", "allowed difference from the design length", 0.02, "m", min=0.0),
@@ -31,16 +31,19 @@ class VisScan(ProgramSkill):
         return left.obj.area + right.obj.area
 
     def _find_edge(self, direction: np.ndarray, threshold: float):
-        """Step along `direction` until the seen area drops below `threshold`; return the
-        interpolated TCP position of the crossing, or None."""
+        """Move along `direction` at one `step` per tick until the seen area drops below
+        `threshold`; return the interpolated TCP position of the crossing, or None.
+
+        A speed command, not a move per tick: a real controller starts every move from rest, so
+        a move of one step per tick would crawl at a fraction of the scan speed."""
         arm = self.cell.arm
-        start = arm.pose()
-        prev_pos, prev_area = start[:3].copy(), self._area()
-        for _ in range(int(self.p.max_travel / self.p.step)):
-            target = arm.pose()
-            target[:3] += direction * self.p.step
-            arm.move_linear(target, self.p.step / self.cell.clock.period)
+        start = arm.pose()[:3]
+        prev_pos, prev_area = start.copy(), self._area()
+        arm.speed_linear(np.r_[direction * (self.p.step / self.cell.clock.period), 0.0, 0.0, 0.0])
+        while float(np.linalg.norm(arm.pose()[:3] - start)) < self.p.max_travel:
             yield
+            if arm.fault():
+                return None
             pos, area = arm.pose()[:3], self._area()
             if area < threshold <= prev_area:
                 w = (prev_area - threshold) / max(prev_area - area, 1e-12)
@@ -61,6 +64,8 @@ class VisScan(ProgramSkill):
         for sign in (1.0, -1.0):
             self.feedback_message = f"scanning {'forward' if sign > 0 else 'back'}"
             edge = yield from self._find_edge(sign * axis, threshold)
+            if self.cell.arm.fault():
+                return self.fail(f"arm fault: {self.cell.arm.fault()}")
             if edge is None:
                 return self.fail(f"no element end within {self.p.max_travel} m scanning "
                                  f"{'forward' if sign > 0 else 'back'}")
