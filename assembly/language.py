@@ -15,7 +15,7 @@ from typing import Any
 
 from assembly.conditions import ALL_OPS, split_key
 from assembly.errors import TreeError, did_you_mean
-from assembly.yaml_source import Located, LocatedList
+from assembly.yaml_source import Located
 from behaviours import keys as bbkeys
 from behaviours.base import REQUIRED, Param
 from behaviours.registry import SKILLS

@@ -35,12 +35,12 @@ def summarize(result: RunResult, cell, design) -> dict:
         node = design.graph.nodes[eid]
         entry = {"status": node.get("status", "planned"), "measured_load_px": node.get("measured_load"),
                  "asbuilt_pose": node.get("asbuilt_pose")}
-        if cell.simulated and hasattr(cell.world, "elements"):
+        if cell.world is not None and hasattr(cell.world, "elements"):
             truth = element_truth(cell.world, eid)
             if truth:
                 entry.update(truth)
         elements[eid] = entry
-    metrics = cell.world.metrics() if cell.simulated and hasattr(cell.world, "metrics") else {}
+    metrics = cell.world.metrics() if cell.world is not None and hasattr(cell.world, "metrics") else {}
     return {
         "status": result.status, "message": result.message, "where": result.where,
         "metrics": metrics,

@@ -44,7 +44,7 @@ def run_tree(tree_path: str, cell: str = "sim", seed: int = 0, realtime: bool = 
     # The simulated world is built from the original design: what is already placed stands.
     scene_args = (doc.design or design).scene_args() if design is not None else {}
     the_cell = load_cell(cell, doc.tick_hz, doc.scene, scene_args, seed=seed, perception=perception)
-    if resume and the_cell.simulated and design is not None:
+    if resume and the_cell.world is not None and design is not None:
         _stand_placed(the_cell.world, design)
     built = build(doc)
     say = (lambda line: None) if quiet else stderr_progress

@@ -9,6 +9,7 @@ from typing import Any, Callable
 
 import yaml
 
+from drivers.clock import SimClock
 from drivers.protocols import Camera, Gripper
 from drivers.safety import SafeArm
 from perception.state import TactileState
@@ -34,7 +35,7 @@ class Cell:
     clock: Any  # SimClock or WallClock
     sense: Callable[[], dict[str, TactileState]]  # the perception source for /fv/<finger>
     cameras: dict[str, Camera] = field(default_factory=dict)
-    world: Any = None  # the simulated scene; None on real hardware
+    world: Any = None  # the simulated scene (on an emulated cell, its shadow); None on real hardware
     estop: bool = False  # set by an e-stop input; the runner halts the tree when it is set
     closers: list[Callable[[], None]] = field(default_factory=list)
 
@@ -44,7 +45,8 @@ class Cell:
 
     @property
     def simulated(self) -> bool:
-        return self.world is not None
+        """Time is simulated: the cell advances only when stepped (the runner may pace it)."""
+        return isinstance(self.clock, SimClock)
 
     def step(self) -> None:
         """Advance one tick: the world integrates the commands, the clock moves on, and the
@@ -94,5 +96,5 @@ def load_cell(name_or_path: str, tick_hz: float, scene: str, scene_args: dict,
     if kind == "real":
         from drivers.real_cell import build_real_cell
 
-        return build_real_cell(path, data, tick_hz)
+        return build_real_cell(path, data, tick_hz, scene, scene_args, seed)
     raise CellFileError(path, "kind", f"unknown kind {kind!r}; expected 'sim' or 'real'")

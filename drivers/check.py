@@ -36,7 +36,24 @@ def check_cell(cell: str) -> list[Result]:
     clock = WallClock(0.01)
     results = [check_arm(spec["arm"]), check_gripper(spec["gripper"])]
     results += [check_camera(name, cfg, clock) for name, cfg in spec["cameras"].items()]
+    if spec["perception"]["source"] == "shadow":
+        results.append(check_shadow(spec))
     return results
+
+
+def check_shadow(spec: dict) -> Result:
+    """A shadow world talks to the emulators' back doors: do both answer (read-only query)?"""
+    from drivers.emulators import backdoor
+
+    emulation = spec["emulation"]
+    name = "perception (shadow world)"
+    for device, host, port in (("UR", spec["arm"].host, emulation.arm_backdoor_port),
+                               ("Robotiq", spec["gripper"].host, emulation.gripper_backdoor_port)):
+        try:
+            backdoor.call(host, port, "state", timeout=1.0)
+        except (OSError, ValueError) as exc:
+            return name, False, f"the {device} emulator's back door at {host}:{port} does not answer: {exc}"
+    return name, True, f"both emulator back doors answer; time scale {emulation.time_scale:g}"
 
 
 def check_arm(config: UrConfig) -> Result:

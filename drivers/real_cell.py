@@ -3,13 +3,16 @@ a Robotiq gripper over Modbus, OpenCV cameras, and the FingerVision perception s
 
 Sections: `arm` (UrConfig fields, `driver: ur_rtde`), `gripper` (RobotiqConfig fields, `driver:
 robotiq_modbus`, `activate`), `cameras` (finger -> CameraConfig fields), `perception` (`source:
-fingervision | none`, `preset`, `marker_maps`, `stale_after`, `calibration_timeout`), `safety`
-(SafetyLimits fields). See drivers/cells/ur_robotiq.yaml.
+fingervision | shadow | none`, `preset`, `marker_maps`, `stale_after`, `calibration_timeout`, and
+for `shadow` the simulated `sensor` and `world` settings), `safety` (SafetyLimits fields), and for
+cells of loopback emulators only `emulation` (`time_scale`, `gripper_backdoor_port`). See
+drivers/cells/ur_robotiq.yaml and drivers/cells/emulated_shadow.yaml.
 """
 
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
@@ -21,8 +24,22 @@ from drivers.safety import SafeArm, SafetyLimits
 from drivers.ur import UrArm, UrConfig
 from perception.state import FINGERS, TactileState
 
-SECTIONS = {"kind", "name", "arm", "gripper", "cameras", "perception", "safety"}
-PERCEPTION_FIELDS = {"source", "preset", "marker_maps", "stale_after", "calibration_timeout"}
+SECTIONS = {"kind", "name", "arm", "gripper", "cameras", "perception", "safety", "emulation"}
+PERCEPTION_FIELDS = {"source", "preset", "marker_maps", "stale_after", "calibration_timeout", "sensor", "world"}
+PERCEPTION_SOURCES = ("fingervision", "shadow", "none")
+
+
+@dataclass(frozen=True)
+class Emulation:
+    """The cell file's `emulation:` section, for cells whose devices are the loopback emulators."""
+
+    time_scale: float = 1.0  # emulated seconds per wall second: the emulators and the cell clock
+    arm_backdoor_port: int = 30999  # where the shadow world hands the UR emulator its loads
+    gripper_backdoor_port: int = 30998  # where the shadow world tells the gripper emulator about objects
+
+    def __post_init__(self):
+        if not 0 < self.time_scale <= 100:
+            raise ValueError(f"time_scale must be in (0, 100], got {self.time_scale}")
 
 
 def section(path: Path, data: dict, key: str, required: bool = True) -> dict:
@@ -78,15 +95,29 @@ def parse(path: Path, data: dict) -> dict[str, Any]:
         raise CellFileError(path, f"perception.{unknown[0]}",
                             f"unknown field; known: {', '.join(sorted(PERCEPTION_FIELDS))}")
     source = perception.get("source", "fingervision" if cameras else "none")
-    if source not in ("fingervision", "none"):
-        raise CellFileError(path, "perception.source", f"unknown source {source!r}; expected fingervision or none")
+    if source not in PERCEPTION_SOURCES:
+        raise CellFileError(path, "perception.source",
+                            f"unknown source {source!r}; expected {', '.join(PERCEPTION_SOURCES)}")
     if source == "fingervision" and set(FINGERS) - set(cameras):
         raise CellFileError(path, "cameras", f"perception.source fingervision needs cameras {', '.join(FINGERS)}")
+    arm = config_from(path, "arm", UrConfig, section(path, data, "arm"), driver="ur_rtde")
+    grip = config_from(path, "gripper", RobotiqConfig, gripper, driver="robotiq_modbus")
+    if source == "shadow":
+        from drivers.sim.cell import world_settings
+
+        perception = {**perception, "settings": world_settings(path, perception, "perception.")}
+    emulation = section(path, data, "emulation", required=False)
+    if emulation or source == "shadow":
+        # Only emulators run faster than real time or take object widths from a shadow world.
+        why = "an emulation section" if emulation else "perception.source shadow"
+        for where, host in (("arm.host", arm.host), ("gripper.host", grip.host)):
+            if not host.startswith("127."):
+                raise CellFileError(path, where, f"{why} needs the loopback emulators, but {host} "
+                                    "is not a loopback address (a real robot runs in real time)")
     return {
-        "name": data.get("name", path.stem), "limits": limits,
-        "arm": config_from(path, "arm", UrConfig, section(path, data, "arm"), driver="ur_rtde"),
-        "gripper": config_from(path, "gripper", RobotiqConfig, gripper, driver="robotiq_modbus"),
+        "name": data.get("name", path.stem), "limits": limits, "arm": arm, "gripper": grip,
         "activate": bool(activate), "cameras": cameras, "perception": {**perception, "source": source},
+        "emulation": config_from(path, "emulation", Emulation, emulation),
     }
 
 
@@ -96,10 +127,13 @@ def no_perception(clock) -> Callable[[], dict[str, TactileState]]:
     return lambda: {f: TactileState(f, clock.now(), healthy=False, health_reason=reason) for f in FINGERS}
 
 
-def build_real_cell(path: Path, data: dict, tick_hz: float) -> Cell:
-    """Connect every device of the cell file (arm, gripper, cameras) and return the Cell."""
+def build_real_cell(path: Path, data: dict, tick_hz: float, scene: str = "assembly",
+                    scene_args: dict | None = None, seed: int = 0) -> Cell:
+    """Connect every device of the cell file (arm, gripper, cameras) and return the Cell; with
+    `perception.source: shadow`, also build the simulated `scene` that follows them."""
     spec = parse(Path(path), data)
-    clock = WallClock(1.0 / tick_hz)
+    emulation = spec["emulation"]
+    clock = WallClock(1.0 / tick_hz, emulation.time_scale)
     closers: list[Callable[[], None]] = []
     try:
         arm = UrArm(spec["arm"], clock)
@@ -113,8 +147,19 @@ def build_real_cell(path: Path, data: dict, tick_hz: float) -> Cell:
             gripper.activate()
         cameras = {name: OpenCvCamera(name, cfg, clock) for name, cfg in spec["cameras"].items()}
         closers.extend(c.close for c in cameras.values())
-        p = spec["perception"]
-        if p["source"] == "fingervision":
+        p, world = spec["perception"], None
+        if p["source"] == "shadow":
+            from drivers.emulators.backdoor import Client
+            from drivers.emulators.shadow import FollowedArm, FollowedGripper
+            from drivers.sim.cell import simulated_world
+
+            doors = [Client(spec["arm"].host, emulation.arm_backdoor_port),
+                     Client(spec["gripper"].host, emulation.gripper_backdoor_port)]
+            closers.extend(door.close for door in doors)
+            world, _, sense = simulated_world(Path(path), p["settings"], FollowedArm(arm, clock, doors[0]),
+                                              FollowedGripper(gripper, doors[1]), clock, scene,
+                                              scene_args or {}, seed)
+        elif p["source"] == "fingervision":
             from drivers.camera_sense import fingervision_sense
 
             sense = fingervision_sense(cameras, clock, p.get("preset", "fast"), p.get("marker_maps"),
@@ -125,5 +170,5 @@ def build_real_cell(path: Path, data: dict, tick_hz: float) -> Cell:
         for close in reversed(closers):
             close()
         raise
-    return Cell(spec["name"], safe, gripper, clock, sense, cameras=cameras, closers=closers)
+    return Cell(spec["name"], safe, gripper, clock, sense, cameras=cameras, world=world, closers=closers)
 

@@ -214,7 +214,7 @@ class UrArm:
                 return ok
 
             self._contact = self._worker.submit("moveUntilContact", job)
-            self._contact_deadline = time.monotonic() + timeout
+            self._contact_deadline = self.clock.now() + timeout  # cell time, like the tree's
             self._mode = "contact"
 
     def stop(self) -> None:
@@ -312,7 +312,7 @@ class UrArm:
                 self._latch(f"UR {self.config.host}: moveUntilContact failed "
                             f"({job.error or self._describe_state()})")
             return False
-        if time.monotonic() > self._contact_deadline:
+        if self.clock.now() > self._contact_deadline:
             self.stop()
             self._latch(f"UR {self.config.host}: moveUntilContact found no contact in time")
             return False

@@ -42,12 +42,35 @@ def serve(host: str, port: int, handler: Handler) -> socket.socket:
     return listener
 
 
+class Client:
+    """A kept-open back-door connection, for a caller that talks to the emulator every tick."""
+
+    def __init__(self, host: str, port: int, timeout: float = 2.0):
+        self.where = f"emulator back door at {host}:{port}"
+        try:
+            self._sock = socket.create_connection((host, port), timeout=timeout)
+        except OSError as exc:
+            raise ConnectionError(f"cannot reach the {self.where}: {exc} - is the emulator running?") from None
+        self._file = self._sock.makefile("rwb")
+
+    def call(self, line: str) -> dict:
+        """Send one command line and return the emulator's JSON reply."""
+        self._file.write((line.strip() + "\n").encode())
+        self._file.flush()
+        reply = self._file.readline()
+        if not reply:
+            raise ConnectionError(f"{self.where} closed without a reply")
+        return json.loads(reply)
+
+    def close(self) -> None:
+        self._file.close()
+        self._sock.close()
+
+
 def call(host: str, port: int, line: str, timeout: float = 2.0) -> dict:
-    """Send one back-door command and return the emulator's JSON reply."""
-    with socket.create_connection((host, port), timeout=timeout) as s, s.makefile("rwb") as f:
-        f.write((line.strip() + "\n").encode())
-        f.flush()
-        reply = f.readline()
-    if not reply:
-        raise ConnectionError(f"emulator back door at {host}:{port} closed without a reply")
-    return json.loads(reply)
+    """Send one back-door command on a fresh connection and return the emulator's JSON reply."""
+    client = Client(host, port, timeout)
+    try:
+        return client.call(line)
+    finally:
+        client.close()

@@ -106,13 +106,17 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--stroke", type=float, default=0.085, help="opening at position 0 (m)")
     p.add_argument("--object-width", type=float, default=None, help="width of a grippable object (m)")
     p.add_argument("--activation-time", type=float, default=0.3, help="activation duration (s)")
+    p.add_argument("--time-scale", type=float, default=1.0,
+                   help="emulated seconds per wall-clock second (speeds up long runs in tests)")
     p.add_argument("--backdoor-port", type=int, default=30998, help="fault-injection port")
     args = p.parse_args(argv)
     if not args.host.startswith("127."):
         p.error("the emulator binds loopback addresses only (127.0.0.0/8)")
+    if args.time_scale <= 0:
+        p.error("--time-scale must be positive")
     logging.basicConfig(level=logging.WARNING)
     spec = GripperSpec(stroke=args.stroke, activation_time=args.activation_time,
-                       object_width=args.object_width)
+                       object_width=args.object_width, time_scale=args.time_scale)
     emulator = RobotiqEmulator(RobotiqModel(spec), args.device_id, args.command_address,
                                args.status_address)
     try:

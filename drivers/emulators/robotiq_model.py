@@ -1,6 +1,7 @@
 """The Robotiq 2F-85/140 register behaviour (manual section 4): activation, position requests with
 motion over time, object detection, status bytes and faults. Pure state machine, no I/O; motion is
-integrated lazily from the monotonic clock whenever a register is read or written."""
+integrated lazily from the monotonic clock whenever a register is read or written; emulated time
+may run `time_scale` times faster than the wall clock."""
 
 from __future__ import annotations
 
@@ -25,6 +26,7 @@ class GripperSpec:
     max_speed: float = 0.150  # m/s at rSP = 255
     activation_time: float = 0.3  # s from the rACT rising edge to gSTA = 3
     object_width: float | None = None  # m; the fingers stop on an object this wide when closing
+    time_scale: float = 1.0  # emulated seconds per wall-clock second
 
 
 class RobotiqModel:
@@ -43,7 +45,10 @@ class RobotiqModel:
         self.position = 0.0  # gPO as a float count
         self._activation_started: float | None = None
         self._moving = False
-        self._t = time.monotonic()
+        self._t = self._now()
+
+    def _now(self) -> float:
+        return time.monotonic() * self.spec.time_scale
 
     def write(self, regs: list[int]) -> None:
         """A write to the three command registers (rACT/rGTO..., rPR, rSP/rFR)."""
@@ -91,7 +96,7 @@ class RobotiqModel:
             return [byte0 << 8, self.fault << 8 | self.request, round(self.position) << 8 | current]
 
     def _advance(self) -> None:
-        now = time.monotonic()
+        now = self._now()
         dt, self._t = now - self._t, now
         if self.status == STA_ACTIVATING and now - self._activation_started >= self.spec.activation_time:
             self.status = STA_ACTIVE

@@ -27,6 +27,8 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
+
 from drivers.emulators import backdoor, rtde_wire
 from drivers.emulators.ur_model import ContactPlane, UrModel
 
@@ -239,12 +241,18 @@ class UrEmulator:
             m.release_emergency_stop()
         elif command == "drop":
             self.drop(float(args[0]) if args else 0.0)
+        elif command == "external_wrench":
+            if not 3 <= len(args) <= 6:
+                return {"ok": False, "error": "external_wrench takes FX FY FZ [TX TY TZ] (N, N m)"}
+            with m.lock:
+                m.external_wrench = np.array([float(a) for a in args] + [0.0] * (6 - len(args)))
         elif command == "contact_plane":
             with m.lock:
                 m.plane.z = None if args[0] == "none" else float(args[0])
         else:
             return {"ok": False, "error": f"unknown command {command!r}; known: state, "
-                    "protective_stop, estop, estop_release, drop [s], contact_plane Z|none"}
+                    "protective_stop, estop, estop_release, drop [s], contact_plane Z|none, "
+                    "external_wrench FX FY FZ [TX TY TZ]"}
         return {"ok": True, "t": now}
 
     def drop(self, refuse_for: float) -> None:
@@ -273,11 +281,12 @@ class UrEmulator:
     def run(self) -> None:
         """Step the model and stream data packages every controller cycle until stopped."""
         period = self.model.period
+        emulated = period * self.model.time_scale  # emulated seconds per controller cycle
         cycle = 0
         deadline = time.monotonic()
         while not self.stopping.is_set():
             deadline += period
-            self.model.step(period)
+            self.model.step(emulated)
             values = self.model.outputs()
             with self.lock:
                 sessions = [s for s in self.sessions if s.started]
@@ -321,12 +330,17 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--stiffness", type=float, default=20000.0, help="contact stiffness (N/m)")
     p.add_argument("--protective-force", type=float, default=300.0,
                    help="TCP force that trips a protective stop (N)")
+    p.add_argument("--time-scale", type=float, default=1.0,
+                   help="emulated seconds per wall-clock second (speeds up long runs in tests)")
     p.add_argument("--backdoor-port", type=int, default=30999, help="fault-injection port")
     p.add_argument("--dump-script", type=Path, default=None, help="save the uploaded script here")
     args = p.parse_args(argv)
     if not args.host.startswith("127."):
         p.error("the emulator binds loopback addresses only (127.0.0.0/8)")
-    model = UrModel(3 if args.cb3 else 5, ContactPlane(args.contact_z, args.stiffness, args.protective_force))
+    if args.time_scale <= 0:
+        p.error("--time-scale must be positive")
+    model = UrModel(3 if args.cb3 else 5, ContactPlane(args.contact_z, args.stiffness, args.protective_force),
+                    args.time_scale)
     emulator = UrEmulator(args.host, model, args.backdoor_port, args.dump_script)
     try:
         emulator.listen()

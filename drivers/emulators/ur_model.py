@@ -3,6 +3,8 @@ the command-register protocol of ur_rtde's control script (ready 1 / done 2 on o
 
 One `step(dt)` is one controller cycle (2 ms e-Series, 8 ms CB3). Kinematics only: the TCP moves
 as commanded within acceleration limits; joints are not modelled (actual_q is constant).
+Emulated time may run `time_scale` times faster than the wall clock (long trees in tests): motion,
+the RTDE timestamp, speedL's time limit and the RTDE watchdog all count emulated seconds.
 """
 
 from __future__ import annotations
@@ -44,15 +46,20 @@ class ContactPlane:
 class UrModel:
     """Controller state machine; thread-safe (RTDE readers write inputs, the loop steps)."""
 
-    def __init__(self, major_version: int = 5, plane: ContactPlane | None = None):
+    def __init__(self, major_version: int = 5, plane: ContactPlane | None = None,
+                 time_scale: float = 1.0):
+        if time_scale <= 0:
+            raise ValueError(f"time_scale must be positive, got {time_scale}")
         self.lock = threading.RLock()
         self.major_version = major_version
+        self.time_scale = time_scale
         self.period = 0.008 if major_version <= 3 else 0.002
         self.plane = plane or ContactPlane()
         self.t0 = time.monotonic()
         self.pose = np.array(HOME_POSE, dtype=float)
         self.velocity = np.zeros(6)
         self.force = np.zeros(6)
+        self.external_wrench = np.zeros(6)  # loads of a world outside the emulator (its back door)
         self.inputs: dict[str, object] = {}
         self.out_int = [0] * 48
         self.out_double = [0.0] * 48
@@ -78,16 +85,20 @@ class UrModel:
         self._async_writes = 0
         self._async_op_id = 0
         self._watchdog_hz = 0.0
-        self._last_cmd_write = time.monotonic()
+        self._last_cmd_write = 0.0
+
+    def now(self) -> float:
+        """Emulated seconds since start-up (the RTDE timestamp)."""
+        return (time.monotonic() - self.t0) * self.time_scale
 
     # --- inputs from RTDE clients -------------------------------------------------------------
     def write_inputs(self, values: dict[str, object]) -> None:
         with self.lock:
             self.inputs.update(values)
             if "input_int_register_0" in values:
-                self._last_cmd_write = time.monotonic()
+                self._last_cmd_write = self.now()
                 if values["input_int_register_0"] == SERVOL:
-                    self.servo_updates.append(self._last_cmd_write)
+                    self.servo_updates.append(time.monotonic())
 
     def _in_int(self, i: int) -> int:
         return int(self.inputs.get(f"input_int_register_{i}", 0))
@@ -159,8 +170,9 @@ class UrModel:
 
     # --- one controller cycle ------------------------------------------------------------------
     def step(self, dt: float) -> None:
+        """One controller cycle of `dt` emulated seconds."""
         with self.lock:
-            now = time.monotonic()
+            now = self.now()
             if (self.program_running and self._watchdog_hz > 0
                     and now - self._last_cmd_write > 1.0 / self._watchdog_hz):
                 self.stop_program(f"RTDE watchdog: input_int_register_0 not updated for "
@@ -195,7 +207,7 @@ class UrModel:
             if cmd == SPEEDL:
                 self._accel = self._in_double(6) or 0.25
                 t = self._in_double(7)
-                self._speed_deadline = time.monotonic() + t if t > 0 else None
+                self._speed_deadline = self.now() + t if t > 0 else None
                 self._mode = "speed"
             else:
                 self._accel = self._in_double(12) or 1.2
@@ -212,7 +224,7 @@ class UrModel:
             self._blocking = "stop"
         elif cmd == SET_WATCHDOG:
             self._watchdog_hz = self._in_double(0)
-            self._last_cmd_write = time.monotonic()
+            self._last_cmd_write = self.now()
             self._event(f"RTDE watchdog set to {self._watchdog_hz:g} Hz")
         elif cmd == PROTECTIVE_STOP:
             self.protective_stop("triggered by the client")
@@ -273,7 +285,7 @@ class UrModel:
         if self._mode == "move":
             self._integrate_move(dt)
         elif self._mode in ("speed", "contact"):
-            if self._speed_deadline is not None and time.monotonic() >= self._speed_deadline:
+            if self._speed_deadline is not None and self.now() >= self._speed_deadline:
                 self._twist = np.zeros(6)
             self._ramp_velocity(self._twist, dt)
             self._apply_velocity(dt)
@@ -334,11 +346,12 @@ class UrModel:
         return self.plane.z is not None and self.pose[2] <= self.plane.z
 
     def _update_force(self) -> None:
-        self.force[:] = 0.0
+        self.force[:] = self.external_wrench
         if self.plane.z is not None and self.pose[2] < self.plane.z:
-            self.force[2] = self.plane.stiffness * (self.plane.z - self.pose[2])
-            if self.force[2] > self.plane.protective_force and not self.protective_stopped:
-                self.protective_stop(f"TCP force {self.force[2]:.0f} N above the safety limit")
+            push = self.plane.stiffness * (self.plane.z - self.pose[2])
+            self.force[2] += push
+            if push > self.plane.protective_force and not self.protective_stopped:
+                self.protective_stop(f"TCP force {push:.0f} N above the safety limit")
 
     # --- outputs --------------------------------------------------------------------------------
     def outputs(self) -> dict[str, object]:
@@ -354,7 +367,7 @@ class UrModel:
             safety_mode = (SAFETY_ROBOT_EMERGENCY_STOP if self.estopped else
                            SAFETY_PROTECTIVE_STOP if self.protective_stopped else SAFETY_NORMAL)
             values: dict[str, object] = {
-                "timestamp": time.monotonic() - self.t0,
+                "timestamp": self.now(),
                 "actual_TCP_pose": list(self.pose), "target_TCP_pose": list(
                     self._target if self._target is not None and self._mode == "move" else self.pose),
                 "actual_TCP_speed": list(self.velocity), "target_TCP_speed": list(self.velocity),

@@ -19,13 +19,13 @@ from drivers.sim.plate import BeamPlate
 from perception.state import FINGERS
 
 
-def _section(path: Path, data: dict, key: str, allowed: set[str]) -> dict:
+def _section(path: Path, data: dict, key: str, allowed: set[str], where: str = "") -> dict:
     section = data.get(key) or {}
     if not isinstance(section, dict):
-        raise CellFileError(path, key, "must be a mapping")
+        raise CellFileError(path, where + key, "must be a mapping")
     unknown = set(section) - allowed
     if unknown:
-        raise CellFileError(path, f"{key}.{sorted(unknown)[0]}",
+        raise CellFileError(path, f"{where}{key}.{sorted(unknown)[0]}",
                             f"unknown field; known: {', '.join(sorted(allowed))}")
     return section
 
@@ -68,6 +68,31 @@ def register_scene(name: str, builder: Callable[..., object]) -> None:
     SCENES[name] = builder
 
 
+def world_settings(path: Path, data: dict, where: str = "") -> tuple[dict, dict]:
+    """The `sensor:` and `world:` settings of a cell file section at `where`, checked."""
+    return (_section(path, data, "sensor", set(SensorModel.__dataclass_fields__) - {"finger", "seed"}, where),
+            _section(path, data, "world", set(SceneConfig.__dataclass_fields__) - {"seed"}, where))
+
+
+def simulated_world(path: Path, settings: tuple[dict, dict], arm, gripper, clock, scene: str,
+                    scene_args: dict, seed: int) -> tuple[object, dict[str, SensorModel], Callable]:
+    """The scene a tree needs around `arm` and `gripper`, with the (sensor, world) `settings`:
+    returns the world, its two FingerVision sensor models and the signal-level perception source
+    reading them."""
+    sensor_cfg, world_cfg = settings
+    if scene not in SCENES:
+        raise CellFileError(path, "scene", f"no simulated scene {scene!r}; known: {', '.join(sorted(SCENES))}")
+    world = SCENES[scene](arm, gripper, scene_args, world_cfg, seed)
+    sensors = {f: SensorModel(f, seed=seed * 2 + i, **sensor_cfg) for i, f in enumerate(FINGERS)}
+
+    def sense():
+        contacts = world.contacts()
+        now = clock.now()
+        return {f: sensors[f].state(contacts[f], now) for f in FINGERS}
+
+    return world, sensors, sense
+
+
 def build_sim_cell(path: Path, data: dict, tick_hz: float, scene: str, scene_args: dict,
                    seed: int = 0, perception: str | None = None) -> Cell:
     allowed = {"kind", "name", "home", "safety", "gripper", "sensor", "world", "perception"}
@@ -82,18 +107,8 @@ def build_sim_cell(path: Path, data: dict, tick_hz: float, scene: str, scene_arg
     home = np.array(data.get("home", [0.0, 0.0, 0.5, np.pi, 0.0, 0.0]), dtype=float)
     arm = KinematicArm(clock, home)
     gripper = SimGripper(**_section(path, data, "gripper", {"max_width", "gel_stiffness", "max_speed"}))
-    sensor_cfg = _section(path, data, "sensor", set(SensorModel.__dataclass_fields__) - {"finger", "seed"})
-    world_cfg = _section(path, data, "world", set(SceneConfig.__dataclass_fields__) - {"seed"})
-    if scene not in SCENES:
-        raise CellFileError(path, "scene", f"no simulated scene {scene!r}; known: {', '.join(sorted(SCENES))}")
-    world = SCENES[scene](arm, gripper, scene_args, world_cfg, seed)
-    sensors = {f: SensorModel(f, seed=seed * 2 + i, **sensor_cfg) for i, f in enumerate(FINGERS)}
-
-    def sense():
-        contacts = world.contacts()
-        now = clock.now()
-        return {f: sensors[f].state(contacts[f], now) for f in FINGERS}
-
+    world, sensors, sense = simulated_world(path, world_settings(path, data), arm, gripper, clock,
+                                            scene, scene_args, seed)
     mode = perception or data.get("perception", "signals")
     if mode == "pixels":
         from drivers.sim.camera import pixel_level_sense  # rendered frames -> real pipeline

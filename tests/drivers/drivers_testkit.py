@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import os
 import time
 
 from drivers.emulators import backdoor
+from drivers.emulators.__main__ import cell_emulators
 from drivers.emulators.launch import EmulatorProcess
 
 _hosts = itertools.count(10)
@@ -41,3 +43,16 @@ def wait_until(predicate, timeout: float, step: float = 0.005) -> bool:
             return True
         time.sleep(step)
     return bool(predicate())
+
+
+@contextlib.contextmanager
+def emulating(cell_file, **options):
+    """The emulators a cell file points at, running for the with-block; always stopped."""
+    procs = cell_emulators(cell_file, **options)
+    try:
+        for proc in procs:
+            proc.start()
+        yield procs
+    finally:
+        for proc in reversed(procs):
+            proc.stop()

@@ -7,12 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from drivers_testkit import next_host
+from drivers_testkit import emulating, next_host
 
 from drivers import benchmark
 from drivers.cell import CELLS_DIR, CellFileError, load_cell, read_cell_file
 from drivers.check import check_cell
-from drivers.emulators.__main__ import cell_emulators
 from drivers.real_cell import parse
 from drivers.safety import SafeArm
 from drivers.ur import UrArm
@@ -29,21 +28,15 @@ def emulated_cell(tmp_path):
         data["cameras"][finger]["source"] = f"http://{next_host()}:8080/stream.mjpg"
     path = tmp_path / "emulated.yaml"
     path.write_text(yaml.safe_dump(data))
-    procs = cell_emulators(path, object_width=0.04)
-    try:
-        for proc in procs:
-            proc.start()
+    with emulating(path, object_width=0.04):
         yield path
-    finally:
-        for proc in reversed(procs):
-            proc.stop()
 
 
 def test_packaged_real_cell_files_validate_without_touching_hardware():
-    for name in ("ur_robotiq", "emulated"):
+    for name in ("ur_robotiq", "emulated", "emulated_shadow"):
         path = CELLS_DIR / f"{name}.yaml"
         spec = parse(path, read_cell_file(path))
-        assert set(spec["cameras"]) == set(FINGERS)
+        assert set(spec["cameras"]) == (set() if name == "emulated_shadow" else set(FINGERS))
         assert spec["limits"].max_speed <= 0.25
     spec = parse(CELLS_DIR / "ur_robotiq.yaml", read_cell_file(CELLS_DIR / "ur_robotiq.yaml"))
     assert spec["gripper"].framing == "rtu" and spec["gripper"].port == 54321
@@ -56,11 +49,18 @@ def test_packaged_real_cell_files_validate_without_touching_hardware():
     (lambda d: d["gripper"].update(framing="ascii"), "gripper", "framing"),
     (lambda d: d["safety"].update(max_speed=-1), "safety", "positive"),
     (lambda d: d.pop("arm"), "arm", "missing section"),
+    (lambda d: d["perception"].update(source="fingervision"), "cameras", "needs cameras"),
     (lambda d: d["perception"].update(source="magic"), "perception.source", "unknown source"),
     (lambda d: d.update(robot={}), "robot", "unknown field"),
+    # only emulators run faster than real time or take objects from a shadow world
+    (lambda d: d["arm"].update(host="192.168.1.10"), "arm.host", "not a loopback address"),
+    (lambda d: d["gripper"].update(host="10.0.0.7"), "gripper.host", "not a loopback address"),
+    (lambda d: d["emulation"].update(time_scale=0), "emulation", "time_scale"),
+    (lambda d: d["emulation"].update(speed=3), "emulation.speed", "unknown field"),
+    (lambda d: d["perception"]["world"].update(frictoin=1), "perception.world.frictoin", "unknown field"),
 ])
 def test_cell_file_errors_name_the_field(tmp_path, edit, field, message):
-    data = yaml.safe_load((CELLS_DIR / "emulated.yaml").read_text())
+    data = yaml.safe_load((CELLS_DIR / "emulated_shadow.yaml").read_text())
     edit(data)
     path = tmp_path / "cell.yaml"
     path.write_text(yaml.safe_dump(data))

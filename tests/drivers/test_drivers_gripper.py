@@ -35,9 +35,11 @@ def test_activation_then_close_on_an_object_and_open_again(start_robotiq, framer
         assert g.object_detected()
         assert g.width() == pytest.approx(0.040, abs=0.085 / 255)
         assert g.status().obj == 2  # stopped by contact while closing
+        assert g.grip_force() == pytest.approx(60.0, abs=215 / 255 / 2)  # the rFR byte's force
         g.move(0.085, speed=0.15)
         assert wait_until(lambda: not g.is_moving(), 3.0)
         assert not g.object_detected() and g.width() == pytest.approx(0.085)
+        assert g.grip_force() == 0.0
     finally:
         g.close()
 

@@ -170,3 +170,14 @@ def test_limits_are_validated():
         SafetyLimits(out_of_workspace="ignore")
     with pytest.raises(ValueError, match="unknown safety limit"):
         SafetyLimits.from_dict({"max_sped": 1.0})
+
+
+def test_a_scaled_wall_clock_runs_cell_time_faster_and_ticks_on_its_boundaries():
+    clock = WallClock(0.1, time_scale=20.0)  # 100 ms ticks of cell time, 5 ms of wall time
+    started = time.monotonic()
+    for _ in range(10):
+        clock.advance()  # sleeps to the next boundary, so never short of it
+    assert clock.now() >= 1.0
+    assert time.monotonic() - started >= 10 * 0.1 / 20.0
+    with pytest.raises(ValueError, match="positive"):
+        WallClock(0.1, time_scale=0.0)

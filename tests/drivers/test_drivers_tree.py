@@ -6,11 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import yaml
-from drivers_testkit import Emulator, next_host, wait_until
+from drivers_testkit import Emulator, emulating, next_host, wait_until
 
 from assembly.testing import TreeHarness, touch
 from drivers.cell import CELLS_DIR, load_cell
-from drivers.emulators.__main__ import cell_emulators
 
 TREE = """
 version: 1
@@ -34,17 +33,11 @@ def cell(tmp_path):
     data["perception"] = {"source": "none"}
     path = tmp_path / "emulated.yaml"
     path.write_text(yaml.safe_dump(data))
-    procs = cell_emulators(path)
-    try:
-        for proc in procs:
-            proc.start()
+    with emulating(path) as procs:
         the_cell = load_cell(str(path), 30.0, "assembly", {})
         the_cell.ur = Emulator(procs[0], data["arm"]["host"], 30999)
         yield the_cell
         the_cell.close()
-    finally:
-        for proc in reversed(procs):
-            proc.stop()
 
 
 def no_contact(tick, t):

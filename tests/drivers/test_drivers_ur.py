@@ -173,6 +173,15 @@ def test_dropped_connection_is_detected_within_100ms_and_the_arm_stops(arm, ur, 
     assert wait_until(lambda: ur.state()["velocity"] == [0.0] * 6, 1.0), ur.state()
 
 
+def test_loads_handed_to_the_emulator_reach_the_force_readback_and_the_force_limit(arm, ur, safe):
+    ur.call("external_wrench 0 0 -30")
+    assert wait_until(lambda: np.allclose(arm.tcp_wrench()[:3], [0.0, 0.0, -30.0]), 1.0)
+    assert safe.supervise() is None
+    ur.call("external_wrench 0 0 -200")  # beyond the safety layer's 150 N
+    assert wait_until(lambda: "force limit" in (safe.supervise() or ""), 1.0)
+    assert wait_until(lambda: ur.state()["velocity"] == [0.0] * 6, 1.0)
+
+
 def test_emergency_stop_is_a_fault(arm, ur):
     ur.call("estop")
     assert wait_until(lambda: arm.fault() is not None, 1.0)
