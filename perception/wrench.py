@@ -35,8 +35,12 @@ def _signs(finger: str):
 
 def normal_component(markers: MarkerField, mode: NormalMode = "xy_norm") -> np.ndarray:
     """(N,) normal-force proxy per marker: displacement norm (2018) or diameter growth (later)."""
+    return _normal(markers, markers.displacement, mode)
+
+
+def _normal(markers: MarkerField, d: np.ndarray, mode: NormalMode) -> np.ndarray:
     if mode == "xy_norm":
-        return np.hypot(*markers.displacement.T) if len(markers) else np.zeros(0)
+        return np.hypot(d[:, 0], d[:, 1])
     if mode == "marker_size":
         return np.maximum(0.0, markers.size_change)
     raise ValueError(f"unknown normal_mode {mode!r}; expected 'xy_norm' or 'marker_size'")
@@ -47,9 +51,10 @@ def marker_forces(markers: MarkerField, finger: str, mode: NormalMode = "xy_norm
     fsign, _ = _signs(finger)
     d = markers.displacement
     out = np.empty((len(d), 3))
-    out[:, 0] = d[:, 0] * fsign[0]
-    out[:, 1] = normal_component(markers, mode) * fsign[1]
-    out[:, 2] = d[:, 1] * fsign[2]
+    out[:, 0] = d[:, 0]
+    out[:, 1] = _normal(markers, d, mode)
+    out[:, 2] = d[:, 1]
+    out *= fsign
     return out
 
 
@@ -64,7 +69,7 @@ def marker_levers(markers: MarkerField, finger: str) -> np.ndarray:
 
 def _average(values: np.ndarray, how: Averaging) -> np.ndarray:
     if how == "mean":
-        return values.mean(axis=0)
+        return values.sum(axis=0) / len(values)  # what mean() does, without its overhead
     if how == "median":
         return np.median(values, axis=0)
     if how == "robust":
