@@ -42,19 +42,25 @@ class LocateElement(ProgramSkill):
                 return self.fail(fault)
         while gripper.is_moving():
             yield
-        across = rotation(self.cell.arm.pose())[:, 1]  # the fingers close along tool y
+        arm = self.cell.arm
+        across = rotation(arm.pose())[:, 1]  # the fingers close along tool y
         for _ in range(self.p.max_ticks):
             left, right = self.tactile()
             if not (left.obj.present and right.obj.present):
+                arm.stop()
                 return self.fail(f"element {element['id']} not seen between the fingers at "
-                                 f"{np.round(self.cell.arm.pose()[:3], 3).tolist()}")
+                                 f"{np.round(arm.pose()[:3], 3).tolist()}")
             total = left.obj.area + right.obj.area
             imbalance = (right.obj.area - left.obj.area) / total
             if abs(imbalance) <= self.p.tolerance:
-                self.write(keys.ELEMENT_POSE, self.cell.arm.pose())
+                arm.stop()
+                self.write(keys.ELEMENT_POSE, arm.pose())
                 self.feedback_message = f"centred on {element['id']}"
                 return Status.SUCCESS
-            self.cell.arm.move_linear(translated(self.cell.arm.pose(), across * self.p.gain * imbalance),
-                                      self.p.speed)
+            # A speed command of one gain step per tick (a move per tick would start from rest
+            # every tick on a real controller), capped at the approach speed.
+            speed = min(self.p.gain * abs(imbalance) / self.cell.clock.period, self.p.speed)
+            arm.speed_linear(np.r_[across * np.sign(imbalance) * speed, 0.0, 0.0, 0.0])
             yield
+        arm.stop()
         return self.fail(f"could not centre on {element['id']} within {self.p.max_ticks} ticks")
