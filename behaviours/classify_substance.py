@@ -8,17 +8,17 @@ from py_trees.common import Status
 
 from behaviours import keys
 from behaviours.base import Param, ProgramSkill
-from behaviours.model_files import resolve_model_path
+from behaviours.model_files import UsesModel
 from behaviours.registry import register
 from behaviours.stir import MOVEMENTS, next_trial, stir_steps
 from perception.learning.features import columns
-from perception.learning.models import ModelError, load_model
 from perception.learning.stir import classify
 
 
 @register
-class ClassifySubstance(ProgramSkill):
+class ClassifySubstance(UsesModel, ProgramSkill):
     NAME = "classify_substance"
+    MODEL_KIND = "stir"
     SUMMARY = "stir the dipped stick and classify the substance (StirLearn)"
     PARAMS = {
         "model": Param("str", "StirLearn model file (fvtree train stir)", "trees/models/stir_sim.joblib"),
@@ -31,10 +31,9 @@ class ClassifySubstance(ProgramSkill):
     WRITES = (keys.SUBSTANCE, keys.STIR_TRIAL)
 
     def program(self):
-        try:
-            model = load_model(resolve_model_path(self.p.model), "stir")
-        except ModelError as exc:
-            return self.fail(str(exc))
+        if self.model is None:
+            return self.fail(self.model_error)
+        model = self.model
         trial = next_trial(self.read(keys.STIR_TRIAL))
         rows, fault = yield from stir_steps(self, self.p.movement, self.p.duration, trial)
         if fault:

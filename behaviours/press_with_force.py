@@ -13,16 +13,16 @@ from behaviours import keys
 from behaviours.base import Param, ProgramSkill
 from behaviours.control import MovingAverage
 from behaviours.geometry import rotation
-from behaviours.model_files import resolve_model_path
+from behaviours.model_files import UsesModel
 from behaviours.registry import register
 from perception.learning.features import tick_features
 from perception.learning.force import predict_force
-from perception.learning.models import ModelError, load_model
 
 
 @register
-class PressWithForce(ProgramSkill):
+class PressWithForce(UsesModel, ProgramSkill):
     NAME = "press_with_force"
+    MODEL_KIND = "force"
     SUMMARY = "press along tool z until the learned force (ForceLearn) reaches a target in newtons"
     PARAMS = {
         "model": Param("str", "ForceLearn model file (fvtree train force)", "trees/models/force_sim.joblib"),
@@ -39,10 +39,9 @@ class PressWithForce(ProgramSkill):
     WRITES = (keys.PRESS_FORCE,)
 
     def program(self):
-        try:
-            model = load_model(resolve_model_path(self.p.model), "force")
-        except ModelError as exc:
-            return self.fail(str(exc))
+        if self.model is None:
+            return self.fail(self.model_error)
+        model = self.model
         arm = self.cell.arm
         start, steady, average = arm.pose(), 0, MovingAverage(self.p.smoothing)
         while steady < self.p.settle:
