@@ -93,6 +93,7 @@ class RobotiqGripper:
     def __init__(self, config: RobotiqConfig):
         self.config = config
         self.max_width = config.max_width
+        self.max_speed = config.speed_range[1]
         self._where = f"Robotiq gripper at {config.host}:{config.port} ({config.framing}, id {config.device_id})"
         self._client = ModbusTcpClient(config.host, port=config.port, framer=FRAMERS[config.framing],
                                        timeout=config.timeout, retries=0, reconnect_delay=0)
@@ -101,7 +102,6 @@ class RobotiqGripper:
                               "powered, and is the gateway / RS485 URCap running?")
         self._status: RobotiqStatus | None = None
         self._status_at = 0.0
-        self._force = 0.0  # N, the force setting of the last move (as the rFR byte encodes it)
         self._link_fault: str | None = None
 
     # --- requests ----------------------------------------------------------------------------------
@@ -159,15 +159,8 @@ class RobotiqGripper:
 
     def move(self, width: float, speed: float = 0.05, force: float = 20.0) -> None:
         c = self.config
-        force_byte = _scale(force, c.force_range)
-        self._write([(ACT | GTO) << 8, self._count(width), _scale(speed, c.speed_range) << 8 | force_byte])
-        lo, hi = c.force_range
-        self._force = lo + (hi - lo) * force_byte / 255
-
-    def grip_force(self) -> float:
-        """Force (N) the fingers press an object with: the force setting of the last move once
-        they have stopped on the object while closing (gOBJ = 2), else 0."""
-        return self._force if self.status().obj == OBJ_CONTACT_CLOSING else 0.0
+        self._write([(ACT | GTO) << 8, self._count(width),
+                     _scale(speed, c.speed_range) << 8 | _scale(force, c.force_range)])
 
     def is_moving(self) -> bool:
         s = self.status()

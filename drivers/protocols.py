@@ -54,7 +54,8 @@ class Arm(Protocol):
 
 @runtime_checkable
 class Gripper(Protocol):
-    max_width: float
+    max_width: float  # m, fully open
+    max_speed: float  # m/s, fastest finger motion
 
     def width(self) -> float:
         """Current opening between the fingertips in metres."""

@@ -36,10 +36,13 @@ class Emulation:
     time_scale: float = 1.0  # emulated seconds per wall second: the emulators and the cell clock
     arm_backdoor_port: int = 30999  # where the shadow world hands the UR emulator its loads
     gripper_backdoor_port: int = 30998  # where the shadow world tells the gripper emulator about objects
+    pad_stiffness: float = 5000.0  # N/m, the FingerVision gel pads on the emulated fingers (as sim.yaml)
 
     def __post_init__(self):
         if not 0 < self.time_scale <= 100:
             raise ValueError(f"time_scale must be in (0, 100], got {self.time_scale}")
+        if self.pad_stiffness <= 0:
+            raise ValueError(f"pad_stiffness must be positive, got {self.pad_stiffness}")
 
 
 def section(path: Path, data: dict, key: str, required: bool = True) -> dict:
@@ -157,7 +160,7 @@ def build_real_cell(path: Path, data: dict, tick_hz: float, scene: str = "assemb
                      Client(spec["gripper"].host, emulation.gripper_backdoor_port)]
             closers.extend(door.close for door in doors)
             world, _, sense = simulated_world(Path(path), p["settings"], FollowedArm(arm, clock, doors[0]),
-                                              FollowedGripper(gripper, doors[1]), clock, scene,
+                                              FollowedGripper(gripper, doors[1], emulation.pad_stiffness), clock, scene,
                                               scene_args or {}, seed)
         elif p["source"] == "fingervision":
             from drivers.camera_sense import fingervision_sense

@@ -34,7 +34,8 @@ def cell_emulators(cell_file: Path, contact_z: float | None = None,
     gripper_args = ["--host", grip.host, "--port", str(grip.port), "--framer", grip.framing,
                     "--device-id", str(grip.device_id), "--command-address", str(grip.command_address),
                     "--status-address", str(grip.status_address), "--stroke", str(grip.max_width),
-                    "--time-scale", scale, "--backdoor-port", str(spec["emulation"].gripper_backdoor_port)]
+                    "--time-scale", scale, "--backdoor-port", str(spec["emulation"].gripper_backdoor_port),
+                    "--pad-stiffness", str(spec["emulation"].pad_stiffness)]
     if object_width is not None:
         gripper_args += ["--object-width", str(object_width)]
     procs = [EmulatorProcess("drivers.emulators.ur", ur_args),

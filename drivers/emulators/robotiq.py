@@ -105,6 +105,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--status-address", type=int, default=2000, help="first status register")
     p.add_argument("--stroke", type=float, default=0.085, help="opening at position 0 (m)")
     p.add_argument("--object-width", type=float, default=None, help="width of a grippable object (m)")
+    p.add_argument("--pad-stiffness", type=float, default=None,
+                   help="stiffness of the soft fingertip pads (N/m); default rigid fingers")
     p.add_argument("--activation-time", type=float, default=0.3, help="activation duration (s)")
     p.add_argument("--time-scale", type=float, default=1.0,
                    help="emulated seconds per wall-clock second (speeds up long runs in tests)")
@@ -116,7 +118,8 @@ def main(argv: list[str] | None = None) -> int:
         p.error("--time-scale must be positive")
     logging.basicConfig(level=logging.WARNING)
     spec = GripperSpec(stroke=args.stroke, activation_time=args.activation_time,
-                       object_width=args.object_width, time_scale=args.time_scale)
+                       object_width=args.object_width, pad_stiffness=args.pad_stiffness,
+                       time_scale=args.time_scale)
     emulator = RobotiqEmulator(RobotiqModel(spec), args.device_id, args.command_address,
                                args.status_address)
     try:

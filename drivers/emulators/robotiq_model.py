@@ -19,13 +19,17 @@ MAJOR_FAULTS = range(0x0A, 0x10)
 
 @dataclass
 class GripperSpec:
-    """Mechanics of the emulated gripper: stroke, speed and force ranges, activation time."""
+    """Mechanics of the emulated gripper: stroke, speed and force ranges, activation time, and
+    the object between the fingers."""
 
     stroke: float = 0.085  # m, opening at position 0
     min_speed: float = 0.020  # m/s at rSP = 0
     max_speed: float = 0.150  # m/s at rSP = 255
     activation_time: float = 0.3  # s from the rACT rising edge to gSTA = 3
+    min_force: float = 20.0  # N at rFR = 0
+    max_force: float = 235.0  # N at rFR = 255
     object_width: float | None = None  # m; the fingers stop on an object this wide when closing
+    pad_stiffness: float | None = None  # N/m of the two soft fingertip pads; None: rigid fingers
     time_scale: float = 1.0  # emulated seconds per wall-clock second
 
 
@@ -107,7 +111,12 @@ class RobotiqModel:
         target = float(self.request)
         stop_at = None
         if s.object_width is not None:
-            stop_at = (1.0 - s.object_width / s.stroke) * 255  # count where the fingers touch it
+            # Rigid fingers stop where they touch the object; soft pads give until they press
+            # it with the requested force.
+            squeezed = s.object_width
+            if s.pad_stiffness:
+                squeezed -= (s.min_force + (s.max_force - s.min_force) * self.force / 255) / s.pad_stiffness
+            stop_at = (1.0 - squeezed / s.stroke) * 255
         step = rate * dt
         if target > self.position:  # closing
             if stop_at is not None and self.position <= stop_at < target:

@@ -4,10 +4,10 @@ and gives the tree pixel-free FingerVision perception of what the fingertips tou
 
 The shadow also stands in for the physical world the emulators cannot see, through their back
 doors: it tells the gripper emulator how wide the element between the fingers is, so the fingers
-stop on it as a real Robotiq stops on a real element, and it hands the UR emulator the loads on
-the held element, so the arm's force readback (and the safety layer's force limit) feels them.
-A real Robotiq has no gel squeeze to measure: its grip force is the force setting of the last
-move once it has stopped on the object.
+stop on it as a real Robotiq with FingerVision pads stops on a real element (the pads give until
+they press with the requested force), and it hands the UR emulator the loads on the held element,
+so the arm's force readback (and the safety layer's force limit) feels them. The squeeze on the
+element follows from the finger opening the Robotiq reports and the pad stiffness.
 """
 
 from __future__ import annotations
@@ -56,11 +56,12 @@ class FollowedArm:
 
 
 class FollowedGripper:
-    """The gripper as the simulated scene sees it: width and grip force from the Robotiq driver;
-    the width of the object between the fingers goes to the gripper emulator."""
+    """The gripper as the simulated scene sees it: the opening from the Robotiq driver, the squeeze
+    from the opening and the pad stiffness; the width of the object between the fingers goes to
+    the gripper emulator."""
 
-    def __init__(self, gripper, backdoor: Client):
-        self.gripper, self._backdoor = gripper, backdoor
+    def __init__(self, gripper, backdoor: Client, pad_stiffness: float):
+        self.gripper, self._backdoor, self.pad_stiffness = gripper, backdoor, pad_stiffness
         self.max_width = gripper.max_width
         self._object_width: float | None = None
         _ask(backdoor, "object none")  # start from an empty hand, whatever an earlier run left
@@ -79,8 +80,10 @@ class FollowedGripper:
         return self.gripper.width()
 
     def squeeze_force(self) -> float:
-        """Normal force (N) on the object between the fingers; 0 with nothing there."""
-        return self.gripper.grip_force() if self._object_width is not None else 0.0
+        """Normal force (N) the pads press the object between the fingers with; 0 with nothing there."""
+        if self._object_width is None:
+            return 0.0
+        return self.pad_stiffness * max(0.0, self._object_width - self.gripper.width())
 
     def step(self, dt: float) -> None:
         """Nothing to integrate: the gripper emulator moves the fingers."""

@@ -35,11 +35,24 @@ def test_activation_then_close_on_an_object_and_open_again(start_robotiq, framer
         assert g.object_detected()
         assert g.width() == pytest.approx(0.040, abs=0.085 / 255)
         assert g.status().obj == 2  # stopped by contact while closing
-        assert g.grip_force() == pytest.approx(60.0, abs=215 / 255 / 2)  # the rFR byte's force
         g.move(0.085, speed=0.15)
         assert wait_until(lambda: not g.is_moving(), 3.0)
         assert not g.object_detected() and g.width() == pytest.approx(0.085)
-        assert g.grip_force() == 0.0
+    finally:
+        g.close()
+
+
+def test_soft_pads_give_until_they_press_with_the_requested_force(start_robotiq):
+    emulator = start_robotiq("tcp", "--object-width", "0.040", "--pad-stiffness", "5000")
+    g = connect(emulator, "tcp")
+    try:
+        g.activate()
+        g.move(0.0, speed=0.15, force=60.0)
+        assert wait_until(lambda: not g.is_moving(), 3.0) and g.object_detected()
+        assert g.width() == pytest.approx(0.040 - 60.0 / 5000, abs=0.085 / 255)
+        g.move(0.035, speed=0.15, force=60.0)  # less squeeze than the force allows: reached
+        assert wait_until(lambda: not g.is_moving(), 3.0)
+        assert not g.object_detected() and g.width() == pytest.approx(0.035, abs=0.085 / 255)
     finally:
         g.close()
 
