@@ -1,6 +1,7 @@
-"""The flagship assembly tree on the emulated UR and Robotiq - the real ur_rtde and pymodbus clients
-against the loopback emulators, ten times faster than real time - with pixel-free perception from
-a shadow world that follows them, to the same result as on the simulated cell."""
+"""Trees on the emulated UR and Robotiq - the real ur_rtde and pymodbus clients against the loopback
+emulators, ten times faster than real time - with pixel-free perception from a shadow world that
+follows them: the flagship assembly to the same result as on the simulated cell, and the tactile
+skill demos to success."""
 
 from __future__ import annotations
 
@@ -13,6 +14,10 @@ from assembly.session import run_tree
 from drivers.cell import CELLS_DIR
 
 TREE = "trees/assembly.yaml"
+# Every skill demo but classify_substance: its StirLearn model was trained on the simulated cell's
+# ideal stirring motion and misreads the emulated controller's (record and retrain per cell).
+DEMOS = ["hold", "press_with_force", "arm_rot", "in_hand_rot", "in_hand_man", "handover",
+         "force_track", "object_track"]
 TIME_SCALE = 10.0
 HOME = [0.0, 0.0, 0.5, 3.141593, 0.0, 0.0]  # the tree's last move
 
@@ -59,3 +64,11 @@ def test_assembly_on_the_emulated_cell_matches_the_simulated_cell(emulated_cell,
     assert np.allclose(state["pose"], HOME, atol=1e-4)
     assert not state["protective_stopped"] and not state["estopped"]
     assert robotiq.state()["object_width"] is None
+
+
+@pytest.mark.parametrize("demo", DEMOS)
+def test_skill_demo_succeeds_on_the_emulated_cell(emulated_cell, tmp_path, demo):
+    path, ur, _ = emulated_cell
+    summary = run_tree(f"trees/{demo}.yaml", cell=str(path), runs_dir=tmp_path, plots=False, quiet=True)
+    assert summary["status"] == "SUCCESS", summary["message"]
+    assert summary["arm_fault"] is None and not ur.state()["protective_stopped"]
