@@ -8,6 +8,7 @@ Ctrl-C or an e-stop halts the tree: every running skill's `terminate` runs and t
 
 from __future__ import annotations
 
+import gc
 import json
 import os
 import sys
@@ -154,6 +155,10 @@ class Runner:
     # ---- the loop --------------------------------------------------------------------------
     def run(self, max_time: float = 3600.0) -> RunResult:
         """Tick until the root succeeds or fails, `max_time` of cell time passes, Ctrl-C, or e-stop."""
+        # Collect once, then keep every object alive so far out of the garbage collector's
+        # view: a full collection over them pauses the tick loop for 100 ms or more.
+        gc.collect()
+        gc.freeze()
         start = time.perf_counter()
         status, message = Status.RUNNING, ""
         try:
@@ -175,6 +180,7 @@ class Runner:
             return self._result("HALTED", start, "interrupted (Ctrl-C)")
         finally:
             self.log.close()
+            gc.unfreeze()
         if status == Status.FAILURE:
             message = self._failure_message()
         return self._result(status.name, start, message)

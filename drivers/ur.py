@@ -69,7 +69,8 @@ class _Worker:
 
     def __init__(self, name: str):
         self._jobs: queue.SimpleQueue[_Job | None] = queue.SimpleQueue()
-        threading.Thread(target=self._run, name=name, daemon=True).start()
+        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+        self._thread.start()
 
     def _run(self) -> None:
         while (job := self._jobs.get()) is not None:
@@ -92,8 +93,10 @@ class _Worker:
             raise job.error
         return job.result
 
-    def close(self) -> None:
+    def close(self, timeout: float = 1.0) -> None:
+        """Finish the queued calls and end the thread (waiting at most `timeout` s)."""
         self._jobs.put(None)
+        self._thread.join(timeout)
 
 
 class UrArm:
@@ -270,6 +273,10 @@ class UrArm:
             except DriverFault as exc:
                 log.warning("%s", exc)
         self._worker.close()
+        self._monitor.join(timeout=1.0)
+        # Destroy the ur_rtde interfaces here and now: their destructors sleep about a second
+        # holding the GIL, which inside a later garbage collection would stall another cell's ticks.
+        self._control = self._receive = None
 
     # --- internals ----------------------------------------------------------------------------------
     def _command(self, what: str, mode: str, fn: Callable[..., bool], *args) -> None:
