@@ -92,6 +92,19 @@ def parse(path: Path, data: dict) -> dict[str, Any]:
     cameras = {name: config_from(path, f"cameras.{name}", CameraConfig, spec if isinstance(spec, dict)
                                  else {"source": spec})
                for name, spec in section(path, data, "cameras", required=False).items()}
+    perception = parse_perception(path, data, cameras)
+    arm = config_from(path, "arm", UrConfig, section(path, data, "arm"), driver="ur_rtde")
+    grip = config_from(path, "gripper", RobotiqConfig, gripper, driver="robotiq_modbus")
+    return {
+        "name": data.get("name", path.stem), "limits": limits, "arm": arm, "gripper": grip,
+        "activate": bool(activate), "cameras": cameras, "perception": perception,
+        "emulation": parse_emulation(path, data, perception["source"], (arm.host, grip.host)),
+    }
+
+
+def parse_perception(path: Path, data: dict, cameras: dict) -> dict[str, Any]:
+    """The `perception` section, with its `source` filled in and, for a shadow world, the
+    checked simulated (sensor, world) `settings`."""
     perception = section(path, data, "perception", required=False)
     unknown = sorted(set(perception) - PERCEPTION_FIELDS)
     if unknown:
@@ -103,25 +116,25 @@ def parse(path: Path, data: dict) -> dict[str, Any]:
                             f"unknown source {source!r}; expected {', '.join(PERCEPTION_SOURCES)}")
     if source == "fingervision" and set(FINGERS) - set(cameras):
         raise CellFileError(path, "cameras", f"perception.source fingervision needs cameras {', '.join(FINGERS)}")
-    arm = config_from(path, "arm", UrConfig, section(path, data, "arm"), driver="ur_rtde")
-    grip = config_from(path, "gripper", RobotiqConfig, gripper, driver="robotiq_modbus")
+    perception = {**perception, "source": source}
     if source == "shadow":
         from drivers.sim.cell import world_settings
 
-        perception = {**perception, "settings": world_settings(path, perception, "perception.")}
+        perception["settings"] = world_settings(path, perception, "perception.")
+    return perception
+
+
+def parse_emulation(path: Path, data: dict, source: str, hosts: tuple[str, str]) -> Emulation:
+    """The `emulation` section. It, and a shadow world, need the loopback emulators: only they
+    run faster than real time or take object widths from a shadow world."""
     emulation = section(path, data, "emulation", required=False)
     if emulation or source == "shadow":
-        # Only emulators run faster than real time or take object widths from a shadow world.
         why = "an emulation section" if emulation else "perception.source shadow"
-        for where, host in (("arm.host", arm.host), ("gripper.host", grip.host)):
+        for where, host in zip(("arm.host", "gripper.host"), hosts):
             if not host.startswith("127."):
                 raise CellFileError(path, where, f"{why} needs the loopback emulators, but {host} "
                                     "is not a loopback address (a real robot runs in real time)")
-    return {
-        "name": data.get("name", path.stem), "limits": limits, "arm": arm, "gripper": grip,
-        "activate": bool(activate), "cameras": cameras, "perception": {**perception, "source": source},
-        "emulation": config_from(path, "emulation", Emulation, emulation),
-    }
+    return config_from(path, "emulation", Emulation, emulation)
 
 
 def no_perception(clock) -> Callable[[], dict[str, TactileState]]:
@@ -135,8 +148,7 @@ def build_real_cell(path: Path, data: dict, tick_hz: float, scene: str = "assemb
     """Connect every device of the cell file (arm, gripper, cameras) and return the Cell; with
     `perception.source: shadow`, also build the simulated `scene` that follows them."""
     spec = parse(Path(path), data)
-    emulation = spec["emulation"]
-    clock = WallClock(1.0 / tick_hz, emulation.time_scale)
+    clock = WallClock(1.0 / tick_hz, spec["emulation"].time_scale)
     closers: list[Callable[[], None]] = []
     try:
         arm = UrArm(spec["arm"], clock)
@@ -152,16 +164,10 @@ def build_real_cell(path: Path, data: dict, tick_hz: float, scene: str = "assemb
         closers.extend(c.close for c in cameras.values())
         p, world = spec["perception"], None
         if p["source"] == "shadow":
-            from drivers.emulators.backdoor import Client
-            from drivers.emulators.shadow import FollowedArm, FollowedGripper
-            from drivers.sim.cell import simulated_world
+            from drivers.emulators.shadow import shadow_world
 
-            doors = [Client(spec["arm"].host, emulation.arm_backdoor_port),
-                     Client(spec["gripper"].host, emulation.gripper_backdoor_port)]
-            closers.extend(door.close for door in doors)
-            world, _, sense = simulated_world(Path(path), p["settings"], FollowedArm(arm, clock, doors[0]),
-                                              FollowedGripper(gripper, doors[1], emulation.pad_stiffness), clock, scene,
-                                              scene_args or {}, seed)
+            world, sense = shadow_world(Path(path), spec, arm, gripper, clock, scene, scene_args or {},
+                                        seed, closers)
         elif p["source"] == "fingervision":
             from drivers.camera_sense import fingervision_sense
 

@@ -12,10 +12,28 @@ element follows from the finger opening the Robotiq reports and the pad stiffnes
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import Callable
+
 import numpy as np
 
 from drivers.emulators.backdoor import Client
 from drivers.protocols import DriverFault
+from drivers.sim.cell import simulated_world
+
+
+def shadow_world(path: Path, spec: dict, arm, gripper, clock, scene: str, scene_args: dict,
+                 seed: int, closers: list[Callable[[], None]]) -> tuple[object, Callable]:
+    """The simulated `scene` following the emulated `arm` and `gripper` of a parsed cell file
+    `spec`, and the perception source reading it; its back-door connections join `closers`."""
+    emulation = spec["emulation"]
+    doors = [Client(spec["arm"].host, emulation.arm_backdoor_port),
+             Client(spec["gripper"].host, emulation.gripper_backdoor_port)]
+    closers.extend(door.close for door in doors)
+    world, _, sense = simulated_world(path, spec["perception"]["settings"], FollowedArm(arm, clock, doors[0]),
+                                      FollowedGripper(gripper, doors[1], emulation.pad_stiffness), clock,
+                                      scene, scene_args, seed)
+    return world, sense
 
 
 def _ask(client: Client, line: str) -> None:
