@@ -55,17 +55,24 @@ def next_trial(previous: dict | None) -> int:
     return 0 if previous is None else previous["trial"] + 1
 
 
+CORRECTION = 0.25  # share of the path-following error corrected per tick
+
+
 def stir_steps(skill: ProgramSkill, movement: str, duration: float, trial: int):
     """Follow the movement for `duration` s with velocity commands and return to the start;
-    yields once per tick and returns the per-tick feature rows felt while stirring."""
+    yields once per tick and returns the per-tick feature rows felt while stirring.
+
+    The command is the path's own velocity plus a share of the position error: correcting the
+    whole error every tick would oscillate on a real controller, whose pose lags the command."""
     arm, dt = skill.cell.arm, skill.cell.clock.period
     start, path, rows = arm.pose(), MOVEMENTS[movement], []
     skill.write(keys.STIR_TRIAL, {"trial": trial, "movement": movement, "active": True})
     t = 0.0
     while t < duration:
         rows.append(tick_features(*skill.tactile()))
-        target = start[:2] + path(t + dt)
-        arm.speed_linear(np.r_[(target - arm.pose()[:2]) / dt, 0.0, 0.0, 0.0, 0.0])
+        error = start[:2] + path(t) - arm.pose()[:2]
+        velocity = (path(t + dt) - path(t)) / dt + CORRECTION * error / dt
+        arm.speed_linear(np.r_[velocity, 0.0, 0.0, 0.0, 0.0])
         skill.feedback_message = f"stirring ({movement}), {t:.1f} of {duration:.1f} s"
         t += dt
         yield
