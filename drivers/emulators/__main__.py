@@ -35,7 +35,8 @@ def cell_emulators(cell_file: Path, contact_z: float | None = None,
                     "--device-id", str(grip.device_id), "--command-address", str(grip.command_address),
                     "--status-address", str(grip.status_address), "--stroke", str(grip.max_width),
                     "--time-scale", scale, "--backdoor-port", str(spec["emulation"].gripper_backdoor_port),
-                    "--pad-stiffness", str(spec["emulation"].pad_stiffness)]
+                    "--pad-stiffness", str(spec["emulation"].pad_stiffness),
+                    "--speed-range", *map(str, grip.speed_range), "--force-range", *map(str, grip.force_range)]
     if object_width is not None:
         gripper_args += ["--object-width", str(object_width)]
     procs = [EmulatorProcess("drivers.emulators.ur", ur_args),

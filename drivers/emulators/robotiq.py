@@ -105,6 +105,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--status-address", type=int, default=2000, help="first status register")
     p.add_argument("--stroke", type=float, default=0.085, help="opening at position 0 (m)")
     p.add_argument("--object-width", type=float, default=None, help="width of a grippable object (m)")
+    p.add_argument("--speed-range", type=float, nargs=2, default=(0.020, 0.150), metavar=("LO", "HI"),
+                   help="finger speed at rSP 0 and 255 (m/s; default 2F-85)")
+    p.add_argument("--force-range", type=float, nargs=2, default=(20.0, 235.0), metavar=("LO", "HI"),
+                   help="grip force at rFR 0 and 255 (N; default 2F-85)")
     p.add_argument("--pad-stiffness", type=float, default=None,
                    help="stiffness of the soft fingertip pads (N/m); default rigid fingers")
     p.add_argument("--activation-time", type=float, default=0.3, help="activation duration (s)")
@@ -118,6 +122,8 @@ def main(argv: list[str] | None = None) -> int:
         p.error("--time-scale must be positive")
     logging.basicConfig(level=logging.WARNING)
     spec = GripperSpec(stroke=args.stroke, activation_time=args.activation_time,
+                       min_speed=args.speed_range[0], max_speed=args.speed_range[1],
+                       min_force=args.force_range[0], max_force=args.force_range[1],
                        object_width=args.object_width, pad_stiffness=args.pad_stiffness,
                        time_scale=args.time_scale)
     emulator = RobotiqEmulator(RobotiqModel(spec), args.device_id, args.command_address,
