@@ -49,13 +49,11 @@ MOVEMENTS: dict[str, Callable[[float], np.ndarray]] = {
     "spiral": _spiral(0.03, 1.5, 4.0),
 }
 CYCLE = "cycle"
+CORRECTION = 0.25  # share of the path-following error corrected per tick
 
 
 def next_trial(previous: dict | None) -> int:
     return 0 if previous is None else previous["trial"] + 1
-
-
-CORRECTION = 0.25  # share of the path-following error corrected per tick
 
 
 def stir_steps(skill: ProgramSkill, movement: str, duration: float, trial: int):

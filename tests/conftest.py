@@ -32,3 +32,19 @@ def tree_file(tmp_path):
         return path
 
     return write
+
+
+
+@pytest.fixture(scope="session")
+def record_shortened(tmp_path_factory):
+    """Record a demo tree `trees/<name>.yaml` with its repeat count cut from `times[0]` to
+    `times[1]` (a shorter recording for tests); returns the loaded Recording."""
+    from assembly.recording import record
+    from perception.learning.dataset import Recording
+
+    def recorded(name: str, times: tuple[int, int]) -> Recording:
+        tree = tmp_path_factory.mktemp(name) / f"{name}.yaml"
+        tree.write_text((TREES / f"{name}.yaml").read_text().replace(f"times: {times[0]}", f"times: {times[1]}"))
+        return Recording.load(record(tree, tree.with_suffix(".npz")))
+
+    return recorded

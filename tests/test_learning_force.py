@@ -3,26 +3,19 @@ and the file formats' checks (recording round trip, feature-spec and kind mismat
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-from assembly.recording import record
 from perception.learning.dataset import Recording
 from perception.learning.features import columns, feature_spec
 from perception.learning.force import press_ids, train_force
 from perception.learning.models import ModelError, TrainedModel, load_model
 
-TREE = Path(__file__).resolve().parents[1] / "trees" / "record_press.yaml"
-
 
 @pytest.fixture(scope="module")
-def presses(tmp_path_factory) -> Recording:
+def presses(record_shortened) -> Recording:
     """Eight presses recorded from the press scene."""
-    tree = tmp_path_factory.mktemp("press") / "record_press.yaml"
-    tree.write_text(TREE.read_text().replace("times: 20", "times: 8"))
-    return Recording.load(record(tree, tree.with_suffix(".npz")))
+    return record_shortened("record_press", (20, 8))
 
 
 def test_a_recording_keeps_features_labels_and_its_format(presses):

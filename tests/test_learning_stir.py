@@ -3,24 +3,17 @@ the paper's MLP and the alternatives; the paper's 72/48 split."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-from assembly.recording import record
 from perception.learning.dataset import Recording
 from perception.learning.stir import PAPER_MODEL, split, train_stir, trials
 
-TREE = Path(__file__).resolve().parents[1] / "trees" / "record_stir.yaml"
-
 
 @pytest.fixture(scope="module")
-def stirred(tmp_path_factory) -> Recording:
+def stirred(record_shortened) -> Recording:
     """Sixteen trials per bowl (each movement twice)."""
-    tree = tmp_path_factory.mktemp("stir") / "record_stir.yaml"
-    tree.write_text(TREE.read_text().replace("times: 40", "times: 16"))
-    return Recording.load(record(tree, tree.with_suffix(".npz")))
+    return record_shortened("record_stir", (40, 16))
 
 
 def test_the_recording_is_cut_into_labelled_trials(stirred):

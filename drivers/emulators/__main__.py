@@ -25,18 +25,20 @@ def cell_emulators(cell_file: Path, contact_z: float | None = None,
                    object_width: float | None = None) -> list[EmulatorProcess]:
     """The (not yet started) emulator processes for the devices of a `kind: real` cell file."""
     spec = parse(cell_file, read_cell_file(cell_file))
-    arm, grip, scale = spec["arm"], spec["gripper"], str(spec["emulation"].time_scale)
+    arm, grip, emulation = spec["arm"], spec["gripper"], spec["emulation"]
     for host in (arm.host, grip.host):
         if not host.startswith("127."):
             raise ValueError(f"{cell_file}: {host} is not a loopback address; emulators serve 127.0.0.0/8 only")
-    ur_args = ["--host", arm.host, "--time-scale", scale,
-               "--backdoor-port", str(spec["emulation"].arm_backdoor_port)] + (["--contact-z", str(contact_z)] if contact_z is not None else [])
+    scale = str(emulation.time_scale)
+    ur_args = ["--host", arm.host, "--time-scale", scale, "--backdoor-port", str(emulation.arm_backdoor_port)]
+    if contact_z is not None:
+        ur_args += ["--contact-z", str(contact_z)]
     gripper_args = ["--host", grip.host, "--port", str(grip.port), "--framer", grip.framing,
                     "--device-id", str(grip.device_id), "--command-address", str(grip.command_address),
                     "--status-address", str(grip.status_address), "--stroke", str(grip.max_width),
-                    "--time-scale", scale, "--backdoor-port", str(spec["emulation"].gripper_backdoor_port),
-                    "--pad-stiffness", str(spec["emulation"].pad_stiffness),
-                    "--speed-range", *map(str, grip.speed_range), "--force-range", *map(str, grip.force_range)]
+                    "--speed-range", *map(str, grip.speed_range), "--force-range", *map(str, grip.force_range),
+                    "--pad-stiffness", str(emulation.pad_stiffness),
+                    "--time-scale", scale, "--backdoor-port", str(emulation.gripper_backdoor_port)]
     if object_width is not None:
         gripper_args += ["--object-width", str(object_width)]
     procs = [EmulatorProcess("drivers.emulators.ur", ur_args),

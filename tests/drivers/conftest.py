@@ -10,15 +10,16 @@ from drivers.emulators.launch import EmulatorProcess
 
 
 @pytest.fixture
-def start_ur():
-    """Factory: start a UR controller emulator with extra CLI args; stopped after the test."""
+def emulators():
+    """Start emulator processes on fresh loopback addresses: `emulators(module, backdoor_port,
+    *args)` -> Emulator; all of them are stopped after the test."""
     started: list[EmulatorProcess] = []
 
-    def start(*args: str) -> Emulator:
+    def start(module: str, backdoor_port: int, *args: str) -> Emulator:
         host = next_host()
-        proc = EmulatorProcess("drivers.emulators.ur", ["--host", host, *args]).start()
+        proc = EmulatorProcess(module, ["--host", host, *args]).start()
         started.append(proc)
-        return Emulator(proc, host, 30999)
+        return Emulator(proc, host, backdoor_port)
 
     yield start
     for proc in started:
@@ -26,20 +27,16 @@ def start_ur():
 
 
 @pytest.fixture
-def start_robotiq():
+def start_ur(emulators):
+    """Factory: start a UR controller emulator with extra CLI args."""
+    return lambda *args: emulators("drivers.emulators.ur", 30999, *args)
+
+
+@pytest.fixture
+def start_robotiq(emulators):
     """Factory: start a Robotiq emulator (framer tcp or rtu) with extra CLI args."""
-    started: list[EmulatorProcess] = []
-
-    def start(framer: str = "tcp", *args: str) -> Emulator:
-        host = next_host()
-        proc = EmulatorProcess("drivers.emulators.robotiq",
-                               ["--host", host, "--port", "5020", "--framer", framer, *args]).start()
-        started.append(proc)
-        return Emulator(proc, host, 30998)
-
-    yield start
-    for proc in started:
-        proc.stop()
+    return lambda framer="tcp", *args: emulators("drivers.emulators.robotiq", 30998,
+                                                 "--port", "5020", "--framer", framer, *args)
 
 
 @pytest.fixture

@@ -1,11 +1,11 @@
 """Real FingerVision footage (akihikoy/fingervision fv_demo, GPL-3.0, kept outside the repository):
 markers are found, tracked across the whole clip, and never jump."""
 
-import cv2
 import numpy as np
 import pytest
 from conftest import REAL_CLIP
 
+from assembly.bench_perception import read_clip
 from perception.config import load_config
 from perception.fingervision import FingerVision
 
@@ -15,15 +15,7 @@ pytestmark = pytest.mark.skipif(not REAL_CLIP.is_file(),
 
 @pytest.fixture(scope="module")
 def frames():
-    cap = cv2.VideoCapture(str(REAL_CLIP))
-    out = []
-    while True:
-        ok, frame = cap.read()
-        if not ok:
-            break
-        out.append(frame)
-    cap.release()
-    return out
+    return read_clip(REAL_CLIP, None)
 
 
 def test_markers_are_tracked_across_the_clip_without_jumps(frames):
