@@ -12,10 +12,10 @@ EXIT_FAILURE = 1  # the tree ran and failed, or a check failed
 EXIT_USAGE = 2  # bad input: tree, design or cell file
 
 BENCHES = {
-    "ticks": "assembly.bench_ticks",
-    "perception": "assembly.bench_perception",
-    "drivers": "drivers.benchmark",
-    "skills": "assembly.bench_skills",
+    "ticks": "assembly.bench.ticks",
+    "perception": "assembly.bench.perception",
+    "drivers": "assembly.bench.drivers",
+    "skills": "assembly.bench.skills",
 }
 
 
@@ -193,25 +193,17 @@ def main(argv: list[str] | None = None) -> int:
 
     logging.basicConfig(level=logging.DEBUG if args.debug else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
-    from assembly.errors import TreeError, TreeErrors
-    from drivers.cell import CellFileError
+    from perception.errors import FvtreeError, FvtreeErrors
 
     try:
         return args.func(args)
-    except TreeErrors as exc:
+    except FvtreeErrors as exc:
         for err in exc.errors:
             print(err, file=sys.stderr)
-        return EXIT_USAGE
-    except TreeError as exc:
+        return exc.exit_code
+    except FvtreeError as exc:
         print(exc, file=sys.stderr)
-        return EXIT_USAGE
-    except CellFileError as exc:
-        from assembly.yaml_source import line_of_field
-
-        line = line_of_field(exc.path, exc.field)
-        where = f"{exc.path}:{line}" if line else exc.path
-        print(f"{where}: {exc.field + ': ' if exc.field else ''}{exc.message}", file=sys.stderr)
-        return EXIT_USAGE
+        return exc.exit_code
     except Exception as exc:  # noqa: BLE001 - last resort: one line unless --debug
         if args.debug:
             raise

@@ -40,7 +40,6 @@ class Guard(py_trees.decorators.EternalGuard):
     """Ticks the child only while a condition holds; halts it and fails the tick it stops."""
 
     def __init__(self, name: str, child: py_trees.behaviour.Behaviour, condition: Condition):
-        self.check = condition
         super().__init__(name=name, child=child, condition=condition.holds)
 
     def update(self) -> Status:

@@ -11,8 +11,6 @@ An edge u -> v means u must be in place before v.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -21,39 +19,10 @@ import networkx as nx
 import numpy as np
 
 from assembly.errors import TreeError, did_you_mean
+from assembly.files import append_json_line, atomic_write_json
 
 _ELEMENT_FIELDS = {"size": 3, "pick_pose": 6}
 _PLATE_FIELDS = {"origin": 3}
-
-
-def _json_default(value: Any):
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    raise TypeError(f"cannot store {type(value).__name__} in the design model")
-
-
-def atomic_write_json(path: Path, data: Any) -> None:
-    """Write JSON so that readers see the old file or the new one, never a torn one."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(data, f, indent=1, default=_json_default)
-            f.write("\n")
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    dir_fd = os.open(path.parent, os.O_RDONLY)
-    try:
-        os.fsync(dir_fd)
-    finally:
-        os.close(dir_fd)
 
 
 class DesignModel:
@@ -150,11 +119,7 @@ class DesignBridge:
         atomic_write_json(self.asbuilt_path, model.to_data())
 
     def event(self, kind: str, **data: Any) -> None:
-        record = {"time": time.time(), "event": kind, **data}
-        with open(self.events_path, "a") as f:
-            f.write(json.dumps(record, default=_json_default) + "\n")
-            f.flush()
-            os.fsync(f.fileno())
+        append_json_line(self.events_path, {"time": time.time(), "event": kind, **data})
 
     def record_placement(self, eid: str, pose, load: float | None, **extra: Any) -> None:
         node = self.model.graph.nodes[eid]

@@ -288,12 +288,6 @@ class Validator:
                        did_you_mean(key, cls.PARAMS) or f"known: {', '.join(cls.PARAMS) or 'none'}")
         if unknown:
             return spec
-        for key, value in params.items():
-            try:
-                cls.PARAMS[key].check(value)
-            except ValueError as exc:
-                self.error(node, f"param {key!r}: {exc}", spec.path, "params")
-                return spec
         try:
             spec.args["params"] = cls.resolve_params(params)
         except (KeyError, ValueError) as exc:

@@ -193,7 +193,7 @@ def build(doc: TreeDocument) -> BuiltTree:
         elif spec.kind == "condition":
             node = Condition(spec.name, a["key"], a["op"], a["value"])
         elif spec.kind == "skill":
-            node = SKILLS[spec.type](spec.name, **a["params"])
+            node = SKILLS[spec.type](spec.name, resolved=a["params"])
         elif spec.kind == "subtree":
             node = py_trees.decorators.PassThrough(name=spec.name, child=kids[0])
         else:  # pragma: no cover - the validator knows every kind

@@ -13,7 +13,7 @@ from py_trees.blackboard import Blackboard
 from assembly.loader import build, load_tree
 from assembly.runner import Runner, clear_blackboard
 from behaviours import keys
-from drivers.cell import load_cell
+from drivers.cell_builders import load_cell
 from perception.learning.dataset import Recording
 from perception.learning.features import columns, feature_spec, tick_features
 

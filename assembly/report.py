@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from assembly.design import atomic_write_json
-from assembly.runner import RunResult, as_jsonable
+from assembly.files import atomic_write_json, to_jsonable
+from assembly.runner import RunResult
 
 
 def element_truth(world, element_id: str) -> dict | None:
@@ -111,4 +111,4 @@ def plot_profiles(profiles: dict[str, dict], summary: dict, world, path: Path) -
 
 
 def write_summary(summary: dict, run_dir: Path) -> None:
-    atomic_write_json(run_dir / "summary.json", json.loads(json.dumps(summary, default=as_jsonable)))
+    atomic_write_json(run_dir / "summary.json", json.loads(json.dumps(summary, default=to_jsonable)))

@@ -77,9 +77,11 @@ def publish_perception(cell: Cell, states: dict | None = None) -> None:
         keys.ROBOT_POSE: arm.pose(),
         keys.ROBOT_WRENCH: arm.tcp_wrench(),
         keys.ROBOT_FAULT: arm.fault(),
+        keys.ROBOT_MOVING: arm.is_moving(),
         keys.GRIPPER_WIDTH: gripper.width(),
         keys.GRIPPER_OBJECT: gripper.object_detected(),
         keys.GRIPPER_FAULT: gripper.fault(),
+        keys.GRIPPER_MOVING: gripper.is_moving(),
         keys.ESTOP: cell.estop,
     })
 
@@ -240,10 +242,3 @@ def clear_blackboard() -> None:
     """Forget every key and client (the blackboard is process-global in py_trees)."""
     py_trees.blackboard.Blackboard.clear()
 
-
-def as_jsonable(value):
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, (np.floating, np.integer)):
-        return value.item()
-    raise TypeError(type(value).__name__)

@@ -11,7 +11,7 @@ from assembly.errors import TreeError
 from assembly.loader import build, load_tree
 from assembly.report import format_summary, plot_profiles, summarize, write_summary
 from assembly.runner import Runner, clear_blackboard, new_run_dir, stderr_progress
-from drivers.cell import load_cell
+from drivers.cell_builders import load_cell
 
 
 def _resume_dir(runs_dir: Path, resume: str, tree_name: str) -> Path:

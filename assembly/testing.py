@@ -25,14 +25,15 @@ from py_trees.blackboard import Blackboard
 from py_trees.common import Status
 
 from assembly.design import DesignModel
+from assembly.errors import did_you_mean
 from assembly.loader import BuiltTree, build, load_tree
 from assembly.runner import Runner, clear_blackboard
 from drivers.cell import Cell
 from drivers.clock import SimClock
 from drivers.safety import SafeArm, SafetyLimits
-from drivers.sim.arm import KinematicArm
-from drivers.sim.fingervision_model import FingerContact, SensorModel
-from drivers.sim.gripper import SimGripper
+from drivers.sim.devices.arm import KinematicArm
+from drivers.sim.models.fingervision_model import FingerContact, SensorModel
+from drivers.sim.devices.gripper import SimGripper
 from perception.state import FINGERS, ObjectInfo, TactileState
 
 HOME = np.array([0.0, 0.0, 0.5, np.pi, 0.0, 0.0])
@@ -215,10 +216,8 @@ class TreeHarness:
         try:
             return self.tree.nodes[path]
         except KeyError:
-            import difflib
-
-            close = difflib.get_close_matches(path, self.tree.nodes, n=1)
-            raise KeyError(f"no node at {path!r}" + (f"; did you mean {close[0]!r}?" if close else "")) from None
+            hint = did_you_mean(path, self.tree.nodes)
+            raise KeyError(f"no node at {path!r}" + (f"; {hint}" if hint else "")) from None
 
     def status(self, path: str) -> str:
         return self.node(path).status.name

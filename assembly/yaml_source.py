@@ -78,16 +78,3 @@ def load_file(path: str | Path):
         raise TreeError(f"cannot read: {exc.strerror}", str(path)) from None
     return load_text(text, str(path))
 
-
-def line_of_field(path: str | Path, field: str) -> int | None:
-    """Line of a dotted field path (e.g. 'safety.max_speed') in a YAML file, if present."""
-    try:
-        node = load_file(path)
-    except TreeError:
-        return None
-    line = None
-    for part in field.split(".") if field else []:
-        if not isinstance(node, Located) or part not in node:
-            break
-        line, node = node.line_of(part), node[part]
-    return line

@@ -23,6 +23,6 @@ from behaviours import (  # noqa: F401  (importing registers the skills)
     classify_substance,
 )
 from behaviours.base import Param, ProgramSkill, Skill
-from behaviours.registry import SKILLS, lookup, register
+from behaviours.registry import SKILLS, register
 
-__all__ = ["Param", "ProgramSkill", "SKILLS", "Skill", "lookup", "register"]
+__all__ = ["Param", "ProgramSkill", "SKILLS", "Skill", "register"]

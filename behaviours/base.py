@@ -79,9 +79,11 @@ class Skill(py_trees.behaviour.Behaviour):
     READS: ClassVar[tuple[str, ...]] = ()
     WRITES: ClassVar[tuple[str, ...]] = ()
 
-    def __init__(self, name: str, **params: Any):
+    def __init__(self, name: str, resolved: dict[str, Any] | None = None, **params: Any):
+        """`params` are checked and completed with defaults; `resolved` params (from the tree
+        loader, which has checked them already) are taken as they are."""
         super().__init__(name=name)
-        self.p = SimpleNamespace(**self.resolve_params(params))
+        self.p = SimpleNamespace(**(resolved if resolved is not None else self.resolve_params(params)))
         self.cell = None
         self.bb = self.attach_blackboard_client(name=name)
         for key in self.READS:
@@ -98,7 +100,10 @@ class Skill(py_trees.behaviour.Behaviour):
         out = {}
         for key, decl in cls.PARAMS.items():
             if key in given:
-                out[key] = decl.check(given[key])
+                try:
+                    out[key] = decl.check(given[key])
+                except ValueError as exc:
+                    raise ValueError(f"param {key!r}: {exc}") from None
             elif decl.required:
                 raise ValueError(f"missing required param {key!r} ({decl.doc})")
             else:

@@ -10,7 +10,7 @@ from behaviours.base import Param
 from behaviours.control import MovingAverage, speed_ctrl, speed_ctrl_gain
 from behaviours.hand import hand_force
 from behaviours.registry import register
-from behaviours.tracking import TrackingSkill
+from behaviours.follow_me import TrackingSkill
 
 
 @register

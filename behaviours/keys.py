@@ -5,9 +5,11 @@ FV_RIGHT = "/fv/right"
 ROBOT_POSE = "/robot/pose"
 ROBOT_WRENCH = "/robot/wrench"
 ROBOT_FAULT = "/robot/fault"
+ROBOT_MOVING = "/robot/moving"
 GRIPPER_WIDTH = "/gripper/width"
 GRIPPER_OBJECT = "/gripper/object"
 GRIPPER_FAULT = "/gripper/fault"
+GRIPPER_MOVING = "/gripper/moving"
 ESTOP = "/task/estop"
 ELEMENT = "/task/element"
 PLATES = "/task/plates"
@@ -27,9 +29,11 @@ PERCEPTION_KEYS = {
     ROBOT_POSE: "TCP pose [x, y, z, rx, ry, rz] (m, rad)",
     ROBOT_WRENCH: "TCP force/torque (N, N m)",
     ROBOT_FAULT: "active arm fault text or None",
+    ROBOT_MOVING: "a commanded arm move or twist is in progress",
     GRIPPER_WIDTH: "gripper opening (m)",
     GRIPPER_OBJECT: "gripper stopped on an object",
     GRIPPER_FAULT: "active gripper fault text or None",
+    GRIPPER_MOVING: "the fingers are moving",
     ESTOP: "e-stop requested",
 }
 

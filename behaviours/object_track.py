@@ -8,7 +8,7 @@ import numpy as np
 
 from behaviours.base import Param
 from behaviours.registry import register
-from behaviours.tracking import TrackingSkill
+from behaviours.follow_me import TrackingSkill
 
 
 @register

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import difflib
-
 from behaviours.base import Skill
 
 SKILLS: dict[str, type[Skill]] = {}
@@ -18,12 +16,3 @@ def register(cls: type[Skill]) -> type[Skill]:
     SKILLS[cls.NAME] = cls
     return cls
 
-
-def lookup(name: str) -> type[Skill]:
-    """The Skill class registered as `name`; KeyError with a did-you-mean hint otherwise."""
-    try:
-        return SKILLS[name]
-    except KeyError:
-        close = difflib.get_close_matches(name, SKILLS, n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise KeyError(f"unknown skill {name!r}{hint}") from None

@@ -11,14 +11,15 @@ import time
 
 import numpy as np
 
-from drivers.camera import OpenCvCamera
-from drivers.cell import CellFileError, read_cell_file, resolve_cell_path
+from drivers.hardware.camera import OpenCvCamera
+from drivers.cell_builders import builder_kind
+from drivers.cell_file import CellFileError, read_cell_file, resolve_cell_path
 from drivers.clock import WallClock
-from drivers.gripper_modbus import FAULTS, RobotiqConfig, RobotiqGripper
+from drivers.hardware.gripper_modbus import FAULTS, RobotiqConfig, RobotiqGripper
 from drivers.protocols import DriverFault
-from drivers.real_cell import parse
-from drivers.ur import RECEIVE_FIELDS, UrConfig
-from drivers.ur_dashboard import DashboardError, preflight
+from drivers.hardware.real_cell import parse
+from drivers.hardware.ur import RECEIVE_FIELDS, UrConfig
+from drivers.hardware.ur_dashboard import DashboardError, preflight
 
 Result = tuple[str, bool, str]
 
@@ -30,7 +31,7 @@ def check_cell(cell: str) -> list[Result]:
         data = read_cell_file(path)
         if data["kind"] == "sim":
             return [("cell", True, f"{path}: simulated cell, no devices to connect")]
-        spec = parse(path, data)
+        spec = parse(path, data, shadow=builder_kind(path, data) == "emulated_shadow")
     except CellFileError as exc:
         return [("cell file", False, str(exc))]
     clock = WallClock(0.01)

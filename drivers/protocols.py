@@ -1,4 +1,5 @@
-"""The small protocols every backend implements: Arm, Gripper, Camera and Clock.
+"""The small protocols every backend implements: Arm, Gripper, Camera, Clock, and for simulated
+cells the World around them and the perception source that reads it.
 
 Skills and the runner talk only to these. Poses are UR-style 6-vectors [x, y, z, rx, ry, rz]
 (metres, rotation vector, base frame); widths are metres between the fingertips. Commands are
@@ -7,13 +8,17 @@ asynchronous: they start a motion and return, and the caller polls state every t
 
 from __future__ import annotations
 
-from typing import Protocol, runtime_checkable
+from typing import Any, Mapping, Protocol, runtime_checkable
 
 import numpy as np
 
+from perception.errors import FvtreeError
 
-class DriverFault(RuntimeError):
+
+class DriverFault(FvtreeError, RuntimeError):
     """A device reported a fault or stopped answering; the tree must fail safe."""
+
+    exit_code = 1  # a device problem, not bad input
 
 
 @runtime_checkable
@@ -79,3 +84,29 @@ class Camera(Protocol):
         """The next BGR frame and its cell-clock stamp, or None when no frame is available."""
 
     def close(self) -> None: ...
+
+
+class PerceptionSource(Protocol):
+    """The cell's perception stage: one TactileState per finger for this tick."""
+
+    def __call__(self) -> Mapping[str, Any]: ...
+
+
+@runtime_checkable
+class World(Protocol):
+    """A simulated scene around the arm and gripper (on an emulated cell, the shadow that follows
+    them): it integrates one tick, says what the fingertips touch, and knows the truth a real cell
+    cannot sense, for run reports only."""
+
+    def step(self, dt: float) -> None:
+        """Advance the scene by `dt` seconds of cell time."""
+
+    def contacts(self) -> Mapping[str, Any]:
+        """Per finger, the contact the FingerVision sensor model turns into a TactileState."""
+
+    def metrics(self) -> dict[str, float]:
+        """Scene measures of how the task went (tracking error, angle reached, ...)."""
+
+    def truth(self) -> dict[str, dict]:
+        """Ground truth per task object (e.g. per placed element: position against the true
+        best one, load, regret) for the run report; empty where the scene has none."""

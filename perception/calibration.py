@@ -21,14 +21,15 @@ import yaml
 from perception.config import FingerVisionConfig
 from perception.detect import make_detector, marker_mask
 from perception.frames import FrameError, as_bgr
-from perception.tracking import make_tracker
+from perception.marker_tracking import make_tracker
+from perception.errors import FvtreeError
 
 FORMAT_KEY = "fingervision_marker_map"
 FORMAT_VERSION = 1
 MIN_MARKERS = 3
 
 
-class CalibrationError(RuntimeError):
+class CalibrationError(FvtreeError, RuntimeError):
     """Calibration found no usable marker map; the message says what to check."""
 
 

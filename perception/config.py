@@ -8,17 +8,18 @@ accuracy targets). Any key left out of a YAML file keeps the dataclass default b
 from __future__ import annotations
 
 import dataclasses
-import difflib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, Mapping
 
 import yaml
 
+from perception.errors import FvtreeError, did_you_mean
+
 PRESET_DIR = Path(__file__).with_name("presets")
 
 
-class ConfigError(ValueError):
+class ConfigError(FvtreeError, ValueError):
     """A perception config file or override is malformed; the message names the key."""
 
 
@@ -174,8 +175,7 @@ class FingerVisionConfig:
 
 
 def _hint(key: str, known) -> str:
-    close = difflib.get_close_matches(key, list(known), n=1)
-    return f"; did you mean {close[0]!r}?" if close else f"; known: {', '.join(sorted(known))}"
+    return f"; {did_you_mean(key, known) or 'known: ' + ', '.join(sorted(known))}"
 
 
 def _coerce(value: Any, kind: Any, where: str) -> Any:

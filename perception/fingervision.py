@@ -22,11 +22,12 @@ from perception.kalman import MarkerKalman
 from perception.proximity import ProximityVision
 from perception.slip import make_motion, object_slip
 from perception.state import FINGERS, MarkerField, ObjectInfo, TactileState
-from perception.tracking import make_tracker
+from perception.marker_tracking import make_tracker
 from perception.wrench import wrench
+from perception.errors import FvtreeError
 
 
-class NotCalibratedError(RuntimeError):
+class NotCalibratedError(FvtreeError, RuntimeError):
     """`process` was called before `calibrate` or `use_marker_map`."""
 
 

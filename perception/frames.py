@@ -3,13 +3,16 @@ frozen) before any stage looks at them."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import cv2
 import numpy as np
 
 from perception.config import HealthConfig
+from perception.errors import FvtreeError
 
 
-class FrameError(ValueError):
+class FrameError(FvtreeError, ValueError):
     """A frame cannot be processed at all (wrong type, shape, dtype or size)."""
 
 
@@ -62,3 +65,16 @@ class ImageQuality:
         if self._repeats >= self.config.frozen_frames:
             return f"camera frozen ({self._repeats + 1} identical frames)"
         return ""
+
+
+def read_clip(path: str | Path, limit: int | None = None) -> list[np.ndarray]:
+    """The frames of a video file (up to `limit`), as OpenCV decodes them."""
+    cap = cv2.VideoCapture(str(path))
+    frames = []
+    while limit is None or len(frames) < limit:
+        ok, frame = cap.read()
+        if not ok:
+            break
+        frames.append(frame)
+    cap.release()
+    return frames

@@ -11,11 +11,12 @@ import pytest
 
 from assembly import design as design_module
 from assembly.cli import main
-from assembly.design import DesignModel, atomic_write_json
+from assembly.design import DesignModel
+from assembly.files import atomic_write_json
 from assembly.loader import build, load_tree
 from assembly.runner import Runner
 from assembly.session import run_tree
-from drivers.cell import load_cell
+from drivers.cell_builders import load_cell
 
 TREES = Path(__file__).resolve().parents[1] / "trees"
 ASSEMBLY = str(TREES / "assembly.yaml")

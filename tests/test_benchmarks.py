@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import csv
 
-from assembly.bench_perception import REAL_CLIP
+from assembly.bench.perception import REAL_CLIP
 from assembly.cli import main
 
 

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from drivers.clock import SimClock
-from drivers.sim.arm import KinematicArm
-from drivers.sim.gripper import SimGripper
-from drivers.sim.plate import BeamPlate
+from drivers.sim.devices.arm import KinematicArm
+from drivers.sim.devices.gripper import SimGripper
+from drivers.sim.models.plate import BeamPlate
 from drivers.sim.transforms import matrix_to_rotvec, rotvec_to_matrix
 
 

@@ -9,7 +9,7 @@ import pytest
 
 from assembly.testing import TreeHarness, touch
 from behaviours.geometry import angle_between
-from drivers.cell import load_cell
+from drivers.cell_builders import load_cell
 
 
 def one_skill(params: str = "{}") -> TreeHarness:

@@ -4,7 +4,7 @@ StirLearn model; reports stirring in the air and unusable models; stops when hal
 from __future__ import annotations
 
 from assembly.testing import TreeHarness
-from drivers.cell import load_cell
+from drivers.cell_builders import load_cell
 
 GRASP = "{skill: gentle_grasp, name: grasp, params: {squeeze: 0.008, force: 60.0}}"
 

@@ -8,7 +8,7 @@ import pytest
 
 from assembly.testing import TreeHarness, touch
 from behaviours.control import speed_ctrl
-from drivers.cell import load_cell
+from drivers.cell_builders import load_cell
 
 GRIP = 10.0  # N squeeze on each pad
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from assembly.testing import TreeHarness, mock_cell, touch
-from drivers.cell import load_cell
+from drivers.cell_builders import load_cell
 
 EMPTY = {f: touch(f) for f in ("left", "right")}
 

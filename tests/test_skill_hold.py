@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from assembly.testing import TreeHarness, mock_cell, touch
-from drivers.cell import load_cell
+from drivers.cell_builders import load_cell
 
 TREES = Path(__file__).resolve().parents[1] / "trees"
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from assembly.testing import TreeHarness, mock_cell, touch
-from drivers.cell import load_cell
+from drivers.cell_builders import load_cell
 
 W0 = 0.015  # gripper width holding the bar
 

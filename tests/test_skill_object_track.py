@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from assembly.testing import TreeHarness, touch
-from drivers.cell import load_cell
+from drivers.cell_builders import load_cell
 
 
 def one_skill(params: str = "{}") -> TreeHarness:

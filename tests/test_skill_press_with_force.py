@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from assembly.testing import TreeHarness, touch
-from drivers.cell import load_cell
+from drivers.cell_builders import load_cell
 from perception.learning.models import TrainedModel
 
 GRIP, WEIGHT = 10.0, 0.05 * 9.81

@@ -11,7 +11,7 @@ import pytest
 from assembly.design import DesignModel
 from assembly.testing import TreeHarness, touch
 from behaviours.geometry import angle_between
-from drivers.cell import load_cell
+from drivers.cell_builders import load_cell
 
 DESIGN = DesignModel.load(Path(__file__).resolve().parents[1] / "trees" / "design" / "two_bays.json")
 E1 = DESIGN.element("E1")

@@ -16,15 +16,17 @@ import threading
 from pathlib import Path
 from urllib.parse import urlparse
 
-from drivers.cell import CELLS_DIR, read_cell_file
+from drivers.cell_builders import builder_kind
+from drivers.cell_file import CELLS_DIR, read_cell_file
 from drivers.emulators.launch import EmulatorProcess
-from drivers.real_cell import parse
+from drivers.hardware.real_cell import parse
 
 
 def cell_emulators(cell_file: Path, contact_z: float | None = None,
                    object_width: float | None = None) -> list[EmulatorProcess]:
     """The (not yet started) emulator processes for the devices of a `kind: real` cell file."""
-    spec = parse(cell_file, read_cell_file(cell_file))
+    data = read_cell_file(cell_file)
+    spec = parse(cell_file, data, shadow=builder_kind(cell_file, data) == "emulated_shadow")
     arm, grip, emulation = spec["arm"], spec["gripper"], spec["emulation"]
     for host in (arm.host, grip.host):
         if not host.startswith("127."):

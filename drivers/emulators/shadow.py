@@ -17,23 +17,44 @@ from typing import Callable
 
 import numpy as np
 
+from drivers.cell import Cell
+from drivers.cell_builders import CellRequest
+from drivers.clock import WallClock
 from drivers.emulators.backdoor import Client
+from drivers.hardware.real_cell import closing_on_error, connect, parse
 from drivers.protocols import DriverFault
-from drivers.sim.cell import simulated_world
+from drivers.sim.scenes import build_world, world_settings
 
 
-def shadow_world(path: Path, spec: dict, arm, gripper, clock, scene: str, scene_args: dict,
-                 seed: int, closers: list[Callable[[], None]]) -> tuple[object, Callable]:
-    """The simulated `scene` following the emulated `arm` and `gripper` of a parsed cell file
-    `spec`, and the perception source reading it; its back-door connections join `closers`."""
-    emulation = spec["emulation"]
-    doors = [Client(spec["arm"].host, emulation.arm_backdoor_port),
-             Client(spec["gripper"].host, emulation.gripper_backdoor_port)]
-    closers.extend(door.close for door in doors)
-    world, _, sense = simulated_world(path, spec["perception"]["settings"], FollowedArm(arm, clock, doors[0]),
+def parse_shadow(path: Path, data: dict) -> dict:
+    """The emulated cell file checked whole, with the shadow world's (sensor, world) settings
+    under `perception.settings`."""
+    spec = parse(path, data, shadow=True)
+    spec["perception"]["settings"] = world_settings(path, spec["perception"], "perception.")
+    return spec
+
+
+def build_shadow_cell(path: Path, data: dict, request: CellRequest) -> Cell:
+    """An emulated cell (`kind: real` on the loopback emulators) whose perception is the
+    simulated `request.scene` following the emulated arm and gripper."""
+    path = Path(path)
+    spec = parse_shadow(path, data)
+    settings = spec["perception"]["settings"]
+    clock = WallClock(1.0 / request.tick_hz, spec["emulation"].time_scale)
+    closers: list[Callable[[], None]] = []
+
+    def build() -> Cell:
+        arm, safe, gripper, cameras = connect(spec, clock, closers)
+        emulation = spec["emulation"]
+        doors = [Client(spec["arm"].host, emulation.arm_backdoor_port),
+                 Client(spec["gripper"].host, emulation.gripper_backdoor_port)]
+        closers.extend(door.close for door in doors)
+        world, _, sense = build_world(path, settings, FollowedArm(arm, clock, doors[0]),
                                       FollowedGripper(gripper, doors[1], emulation.pad_stiffness), clock,
-                                      scene, scene_args, seed)
-    return world, sense
+                                      request.scene, request.scene_args, request.seed)
+        return Cell(spec["name"], safe, gripper, clock, sense, cameras=cameras, world=world, closers=closers)
+
+    return closing_on_error(closers, build)
 
 
 def _ask(client: Client, line: str) -> None:

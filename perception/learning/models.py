@@ -15,13 +15,14 @@ from typing import Any
 import joblib
 
 from perception.learning.features import check_spec, feature_spec
+from perception.errors import FvtreeError
 
 FORMAT = "fvtree-model"
 VERSION = 1
 KINDS = ("force", "stir")
 
 
-class ModelError(ValueError):
+class ModelError(FvtreeError, ValueError):
     """A model file is missing, of the wrong kind or made for other features."""
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from drivers_testkit import next_host, wait_until
 
-from drivers.camera import CameraConfig, OpenCvCamera
+from drivers.hardware.camera import CameraConfig, OpenCvCamera
 from drivers.emulators.mjpeg import MjpegServer, synthetic_frame
 
 

@@ -9,12 +9,14 @@ import pytest
 import yaml
 from drivers_testkit import emulating, next_host
 
-from drivers import benchmark
-from drivers.cell import CELLS_DIR, CellFileError, load_cell, read_cell_file
+from assembly.bench import drivers as benchmark
+from drivers.cell_builders import load_cell
+from drivers.cell_file import CELLS_DIR, CellFileError, read_cell_file
 from drivers.check import check_cell
-from drivers.real_cell import parse
+from drivers.emulators.shadow import parse_shadow
+from drivers.hardware.real_cell import parse
 from drivers.safety import SafeArm
-from drivers.ur import UrArm
+from drivers.hardware.ur import UrArm
 from perception.state import FINGERS
 
 
@@ -35,7 +37,7 @@ def emulated_cell(tmp_path):
 def test_packaged_real_cell_files_validate_without_touching_hardware():
     for name in ("ur_robotiq", "emulated", "emulated_shadow"):
         path = CELLS_DIR / f"{name}.yaml"
-        spec = parse(path, read_cell_file(path))
+        spec = (parse_shadow if name == "emulated_shadow" else parse)(path, read_cell_file(path))
         assert set(spec["cameras"]) == (set() if name == "emulated_shadow" else set(FINGERS))
         assert spec["limits"].max_speed <= 0.25
     spec = parse(CELLS_DIR / "ur_robotiq.yaml", read_cell_file(CELLS_DIR / "ur_robotiq.yaml"))
@@ -65,7 +67,7 @@ def test_cell_file_errors_name_the_field(tmp_path, edit, field, message):
     path = tmp_path / "cell.yaml"
     path.write_text(yaml.safe_dump(data))
     with pytest.raises(CellFileError) as err:
-        parse(path, read_cell_file(path))
+        parse_shadow(path, read_cell_file(path))
     assert err.value.field == field and message in err.value.message
 
 

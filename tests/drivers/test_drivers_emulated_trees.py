@@ -11,7 +11,7 @@ import yaml
 from drivers_testkit import Emulator, emulating, next_host
 
 from assembly.session import run_tree
-from drivers.cell import CELLS_DIR
+from drivers.cell_file import CELLS_DIR
 
 TREE = "trees/assembly.yaml"
 # Every skill demo but classify_substance: its demo StirLearn model, trained on the simulated cell

@@ -6,7 +6,7 @@ import pytest
 from drivers_testkit import next_host, wait_until
 from pymodbus.client import ModbusTcpClient
 
-from drivers.gripper_modbus import RobotiqConfig, RobotiqGripper
+from drivers.hardware.gripper_modbus import RobotiqConfig, RobotiqGripper
 from drivers.protocols import DriverFault
 
 # Robotiq 2F-85/140 manual, Modbus RTU examples (slave 9, CRC low byte first):

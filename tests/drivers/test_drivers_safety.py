@@ -11,7 +11,7 @@ from drivers_testkit import wait_until
 from drivers.clock import SimClock, WallClock
 from drivers.protocols import DriverFault
 from drivers.safety import SafeArm, SafetyLimits
-from drivers.sim.arm import KinematicArm
+from drivers.sim.devices.arm import KinematicArm
 
 HOME = np.array([0.0, 0.0, 0.5, np.pi, 0.0, 0.0])
 BOX = dict(workspace_min=[-0.5, -0.5, 0.1], workspace_max=[0.5, 0.5, 0.8])

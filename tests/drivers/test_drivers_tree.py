@@ -9,7 +9,8 @@ import yaml
 from drivers_testkit import Emulator, emulating, next_host, wait_until
 
 from assembly.testing import TreeHarness, touch
-from drivers.cell import CELLS_DIR, load_cell
+from drivers.cell_builders import load_cell
+from drivers.cell_file import CELLS_DIR
 
 TREE = """
 version: 1

@@ -13,7 +13,7 @@ from drivers_testkit import next_host, wait_until
 
 from drivers.protocols import DriverFault
 from drivers.safety import SafeArm, SafetyLimits
-from drivers.ur import UrArm, UrConfig
+from drivers.hardware.ur import UrArm, UrConfig
 
 HOME = np.array([0.0, -0.4, 0.4, np.pi, 0.0, 0.0])
 WATCHDOG_HZ = 4.0  # controller watchdog: 250 ms without a tick stops the program (slack for busy CI)

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from conftest import REAL_CLIP
 
-from assembly.bench_perception import read_clip
+from perception.frames import read_clip
 from perception.config import load_config
 from perception.fingervision import FingerVision
 

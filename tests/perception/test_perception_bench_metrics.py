@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from assembly.bench_perception.metrics import best_threshold, f1, jitter_and_lag, real_swaps, relative_jumps
-from assembly.bench_perception.report import write_table
+from assembly.bench.perception.metrics import best_threshold, f1, jitter_and_lag, real_swaps, relative_jumps
+from assembly.bench.perception.report import write_table
 
 
 def test_f1_and_threshold_tuning():

@@ -10,7 +10,7 @@ from conftest import Scene, match
 from perception.calibration import CalibrationError, MarkerMap, calibrate_markers
 from perception.config import TrackerConfig, load_config
 from perception.detect import BlobDetector, ComponentDetector, marker_mask
-from perception.tracking import AssignTracker, WindowTracker, inconsistent
+from perception.marker_tracking import AssignTracker, WindowTracker, inconsistent
 
 
 @pytest.mark.parametrize("preset, overrides", [
@@ -130,7 +130,7 @@ def test_consistency_check_flags_a_marker_that_leaves_its_neighbours():
     origin = np.array([[x, y] for y in (0.0, 30.0, 60.0) for x in (0.0, 30.0, 60.0)])
     disp = np.tile([1.0, 0.5], (9, 1))
     disp[4] = [8.0, 0.5]  # the centre marker claims something 7 px away
-    from perception.tracking import neighbour_index
+    from perception.marker_tracking import neighbour_index
     flagged = inconsistent(disp, np.ones(9, bool), neighbour_index(origin, 4), tolerance=3.0)
     assert flagged.tolist() == [False] * 4 + [True] + [False] * 4
 

@@ -56,7 +56,7 @@ def test_grey_frames_are_accepted(scene, fv):
 
 
 def test_a_large_occlusion_makes_the_state_unhealthy(scene, fv):
-    from drivers.sim.camera import Appearance
+    from drivers.sim.models.synthetic_camera import Appearance
     image = scene.camera.render(appearance=Appearance(noise=3.0, occlusion=0.7)).image
     state = fv.process(image, 0.0)
     assert not state.healthy and "markers tracked" in state.health_reason

@@ -20,7 +20,7 @@ from typing import Any, Callable
 import numpy as np
 
 from drivers.protocols import Clock, DriverFault
-from drivers.ur_dashboard import Dashboard, DashboardError, controller_major, preflight
+from drivers.hardware.ur_dashboard import Dashboard, DashboardError, controller_major, preflight
 
 log = logging.getLogger(__name__)
 

@@ -16,9 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drivers.sim.arm import KinematicArm
-from drivers.sim.grip import empty_contacts, pad_contacts, pad_view, slip_signal, step_hand, tool_rotation
-from drivers.sim.gripper import SimGripper
+from drivers.sim.devices.arm import KinematicArm
+from drivers.sim.scenes.grip import empty_contacts, pad_contacts, pad_view, slip_signal, step_hand, tool_rotation
+from drivers.sim.devices.gripper import SimGripper
 
 GRAVITY = 9.81
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from drivers.sim.fingervision_model import FingerContact
+from drivers.sim.models.fingervision_model import FingerContact
 from drivers.sim.transforms import rotvec_to_matrix
 from perception.state import ObjectInfo
 

@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import socket
 
+from drivers.protocols import DriverFault
+
 DASHBOARD_PORT = 29999
 
 
-class DashboardError(ConnectionError):
+class DashboardError(DriverFault, ConnectionError):
     """The dashboard server could not be reached or did not answer in time."""
 
 

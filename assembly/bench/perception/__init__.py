@@ -13,17 +13,18 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from assembly.bench_perception import report
-from assembly.bench_perception.metrics import (best_threshold, f1, jitter_and_lag, median_time, real_swaps, relative_jumps,
+from assembly.bench.perception import report
+from assembly.bench.perception.metrics import (best_threshold, f1, jitter_and_lag, median_time, real_swaps, relative_jumps,
                                           run_sequence, score)
-from assembly.bench_perception.scenes import Bench
-from drivers.sim.camera import Appearance
+from assembly.bench.perception.scenes import Bench
+from drivers.sim.models.synthetic_camera import Appearance
 from perception.config import FingerVisionConfig, load_config
 from perception.fingervision import FingerVision
+from perception.frames import read_clip
 from perception.proximity import ProximityVision
 from perception.slip import make_motion, object_slip
 
-REAL_CLIP = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "fv_demo" / "cam1_0002.m4v"
+REAL_CLIP = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "fv_demo" / "cam1_0002.m4v"
 NOISE = Appearance(noise=4.0)
 MARKERS_ONLY = {"proximity.enabled": False}
 FILTERS = {
@@ -188,18 +189,6 @@ def bench_sweeps(quick: bool) -> list[dict]:
                 rows.append({"factor": factor, "value": value, "method": method, "rms_px": r.rms,
                              "tracked": r.tracked, "unflagged_swaps": r.swaps, "broken": broken})
     return rows
-
-
-def read_clip(path: Path, limit: int | None) -> list[np.ndarray]:
-    cap = cv2.VideoCapture(str(path))
-    frames = []
-    while limit is None or len(frames) < limit:
-        ok, frame = cap.read()
-        if not ok:
-            break
-        frames.append(frame)
-    cap.release()
-    return frames
 
 
 def bench_real(quick: bool) -> list[dict]:

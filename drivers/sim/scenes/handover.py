@@ -11,10 +11,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from drivers.sim.arm import KinematicArm
-from drivers.sim.fingervision_model import FingerContact
-from drivers.sim.grip import Grip, empty_contacts, pad_contacts, pad_view, slip_signal, step_hand, tool_rotation
-from drivers.sim.gripper import SimGripper
+from drivers.sim.devices.arm import KinematicArm
+from drivers.sim.models.fingervision_model import FingerContact
+from drivers.sim.scenes.grip import Grip, empty_contacts, pad_contacts, pad_view, slip_signal, step_hand, tool_rotation
+from drivers.sim.devices.gripper import SimGripper
 
 GRAVITY = 9.81
 

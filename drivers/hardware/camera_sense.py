@@ -9,7 +9,7 @@ import time
 from pathlib import Path
 from typing import Callable
 
-from drivers.camera import OpenCvCamera
+from drivers.hardware.camera import OpenCvCamera
 from drivers.protocols import Clock, DriverFault
 from perception.state import FINGERS, TactileState
 

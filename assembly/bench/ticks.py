@@ -21,9 +21,9 @@ import numpy as np
 from assembly.loader import build, load_tree
 from assembly.report import element_truth
 from assembly.runner import Runner, clear_blackboard, publish_perception
-from drivers.cell import load_cell
+from drivers.cell_builders import load_cell
 
-TREE = Path(__file__).resolve().parents[1] / "trees" / "assembly.yaml"
+TREE = Path(__file__).resolve().parents[2] / "trees" / "assembly.yaml"
 
 
 class TimedRunner(Runner):
@@ -84,7 +84,7 @@ def _noisier_cell(out_dir: Path, noise: float) -> str:
     """A copy of the simulated cell file with another load-noise level."""
     import yaml
 
-    from drivers.cell import resolve_cell_path
+    from drivers.cell_file import resolve_cell_path
 
     data = yaml.safe_load(resolve_cell_path("sim").read_text())
     data["world"]["force_noise"] = noise

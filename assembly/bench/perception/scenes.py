@@ -1,6 +1,6 @@
 """Rendered benchmark sequences with ground truth.
 
-The benchmark is a development tool that composes the simulated camera (`drivers.sim.camera`) with
+The benchmark is a development tool that composes the simulated camera (`drivers.sim.models.synthetic_camera`) with
 the pipeline; it is the one place in `perception` that imports `drivers`, and nothing in the
 pipeline imports the benchmark.
 """
@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drivers.sim.camera import Appearance, RenderedFrame, SyntheticFingerVision
-from drivers.sim.fingervision_model import FingerContact, SensorModel
+from drivers.sim.models.synthetic_camera import Appearance, RenderedFrame, SyntheticFingerVision
+from drivers.sim.models.fingervision_model import FingerContact, SensorModel
 from perception.state import ObjectInfo
 
 OBJECT = ObjectInfo(True, 0.25, np.array([0.06, -0.03]), 0.4)

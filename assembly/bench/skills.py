@@ -19,10 +19,10 @@ import numpy as np
 from assembly.loader import build, load_tree
 from assembly.recording import record
 from assembly.runner import Runner, clear_blackboard
-from drivers.cell import load_cell
+from drivers.cell_builders import load_cell
 from perception.learning.dataset import Recording
 
-TREES = Path(__file__).resolve().parents[1] / "trees"
+TREES = Path(__file__).resolve().parents[2] / "trees"
 
 
 def run_tree_text(text: str, scene_args: dict, seed: int = 0) -> tuple[str, dict]:

@@ -13,10 +13,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from drivers.sim.arm import KinematicArm
-from drivers.sim.fingervision_model import FingerContact
-from drivers.sim.gripper import SimGripper
-from drivers.sim.plate import BeamPlate
+from drivers.sim.devices.arm import KinematicArm
+from drivers.sim.models.fingervision_model import FingerContact
+from drivers.sim.devices.gripper import SimGripper
+from drivers.sim.models.plate import BeamPlate
 from drivers.sim.transforms import homogeneous, pose_of, rigid_inverse, rotvec_to_matrix
 from perception.state import ObjectInfo
 
@@ -265,3 +265,23 @@ class AssemblyScene:
             e.id: {"pose": e.pose.tolist(), "state": e.state, "load": self.plate_load(e)}
             for e in self.elements.values()
         }
+
+
+def build(arm, gripper, args: dict, world: dict, seed: int) -> AssemblyScene:
+    """Elements at their pick poses (with seeded placement error) and the plates to prop."""
+    rng = np.random.default_rng(seed + 1)
+    elements = {}
+    for spec in args.get("elements", []):
+        length, width, depth = spec["size"]
+        pose = np.array(spec["pick_pose"], dtype=float)
+        pose[:2] += rng.uniform(-0.008, 0.008, 2)  # where the element really lies
+        true_length = length + rng.uniform(-0.003, 0.003)
+        elements[spec["id"]] = Element(spec["id"], true_length, width, depth,
+                                       spec.get("mass", 0.4), pose)
+    plates = {}
+    for spec in args.get("plates", []):
+        beam = BeamPlate(span=spec["span"], **spec.get("sim_load", {}))
+        plates[spec["id"]] = Plate(spec["id"], np.array(spec["origin"], float),
+                                   spec.get("width", 0.3), beam)
+    config = SceneConfig(seed=seed, **world)
+    return AssemblyScene(arm, gripper, elements, plates, config)

@@ -14,9 +14,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from drivers.sim.arm import KinematicArm
-from drivers.sim.grip import pad_contacts, pad_view, picked_up, slip_signal, step_hand, tool_rotation
-from drivers.sim.gripper import SimGripper
+from drivers.sim.devices.arm import KinematicArm
+from drivers.sim.scenes.grip import pad_contacts, pad_view, picked_up, slip_signal, step_hand, tool_rotation
+from drivers.sim.devices.gripper import SimGripper
 
 
 @dataclass(frozen=True)

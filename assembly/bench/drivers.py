@@ -7,7 +7,7 @@ driver call takes to return: for servoL (a streaming command) until the packet i
 counted on the emulator's clock. Loopback and a Python emulator: an upper bound on what the
 client costs, not a measurement of a real controller.
 
-    python -m drivers.benchmark --out DIR [--quick]
+    python -m assembly.bench.drivers --out DIR [--quick]
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ import numpy as np
 from drivers.clock import WallClock
 from drivers.emulators import backdoor
 from drivers.emulators.launch import EmulatorProcess
-from drivers.ur import UrArm, UrConfig
+from drivers.hardware.ur import UrArm, UrConfig
 
 _NET = f"127.6.{os.getpid() % 250}"  # per process: two benches at once must not share emulators
 CONTROLLERS = {"e-Series (500 Hz)": (f"{_NET}.2", []), "CB3 (125 Hz)": (f"{_NET}.3", ["--cb3"])}
@@ -137,7 +137,7 @@ def run(out_dir: Path, quick: bool = False) -> list[Path]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m drivers.benchmark", description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog="python -m assembly.bench.drivers", description=__doc__.split("\n\n")[0])
     p.add_argument("--out", type=Path, default=Path("bench/drivers"))
     p.add_argument("--quick", action="store_true", help="e-Series only, shorter runs")
     args = p.parse_args(argv)

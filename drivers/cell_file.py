@@ -1,0 +1,102 @@
+"""Reading cell files (`drivers/cells/*.yaml`): finding one by name, its sections, and config
+dataclasses filled from them, with errors that name the file, line and dotted field."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any, Iterable
+
+import yaml
+
+from perception.errors import FvtreeError, did_you_mean
+
+CELLS_DIR = Path(__file__).parent / "cells"
+
+
+class CellFileError(FvtreeError):
+    """A cell file is missing, malformed or names an unknown field; `field` is a dotted path."""
+
+    def __init__(self, path: str | Path, field: str, message: str, hint: str | None = None):
+        super().__init__(message, str(path), line_of_field(path, field), field or None, hint)
+        self.path = str(path)
+
+
+def line_of_field(path: str | Path, field: str) -> int | None:
+    """Line (1-based) of a dotted field (`safety.max_speed`) in a YAML file, if it is there."""
+    try:
+        node = yaml.compose(Path(path).read_text())
+    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        return None
+    line = None
+    for part in field.split(".") if field else []:
+        if not isinstance(node, yaml.MappingNode):
+            break
+        match = next(((k, v) for k, v in node.value if getattr(k, "value", None) == part), None)
+        if match is None:
+            break
+        line, node = match[0].start_mark.line + 1, match[1]
+    return line
+
+
+def resolve_cell_path(name_or_path: str) -> Path:
+    """`sim` -> the packaged drivers/cells/sim.yaml; anything else is a path."""
+    p = Path(name_or_path)
+    if p.suffix in (".yaml", ".yml") or p.exists():
+        return p
+    return CELLS_DIR / f"{name_or_path}.yaml"
+
+
+def read_cell_file(path: Path) -> dict:
+    """The cell file as a mapping with a `kind`, or CellFileError."""
+    if not path.exists():
+        known = ", ".join(sorted(p.stem for p in CELLS_DIR.glob("*.yaml")))
+        raise CellFileError(path, "", f"no such cell file (packaged cells: {known})")
+    try:
+        data = yaml.safe_load(path.read_text()) or {}
+    except yaml.YAMLError as exc:
+        raise CellFileError(path, "", f"malformed YAML: {exc}") from None
+    if not isinstance(data, dict) or "kind" not in data:
+        raise CellFileError(path, "kind", "a cell file is a mapping with 'kind: sim' or 'kind: real'")
+    return data
+
+
+def check_known(path: Path, mapping: dict, known: Iterable[str], where: str = "") -> None:
+    """CellFileError for the first field of `mapping` not in `known`, with a did-you-mean."""
+    known = set(known)
+    unknown = sorted(set(mapping) - known, key=str)
+    if unknown:
+        raise CellFileError(path, f"{where}{unknown[0]}", "unknown field",
+                            did_you_mean(unknown[0], known) or f"known: {', '.join(sorted(known))}")
+
+
+def section(path: Path, data: dict, key: str, required: bool = False, known: Iterable[str] | None = None,
+            where: str = "") -> dict:
+    """The mapping section `key` of `data` (at dotted prefix `where`), checked against `known`."""
+    value = data.get(key)
+    if value is None:
+        if required:
+            raise CellFileError(path, where + key, "missing section")
+        return {}
+    if not isinstance(value, dict):
+        raise CellFileError(path, where + key, "must be a mapping")
+    if known is not None:
+        check_known(path, value, known, f"{where}{key}.")
+    return value
+
+
+def config_from(path: Path, where: str, cls: type, values: dict, driver: str | None = None) -> Any:
+    """Instantiate a config dataclass from a section, with errors that name the field."""
+    values = dict(values)
+    if driver is not None:
+        got = values.pop("driver", driver)
+        if got != driver:
+            raise CellFileError(path, f"{where}.driver", f"unsupported driver {got!r}; expected {driver!r}")
+    check_known(path, values, (f.name for f in dataclasses.fields(cls)), f"{where}.")
+    for name, value in values.items():  # YAML lists -> the tuples the dataclasses declare
+        if isinstance(value, list):
+            values[name] = tuple(value)
+    try:
+        return cls(**values)
+    except (TypeError, ValueError) as exc:
+        raise CellFileError(path, where, str(exc)) from None

@@ -1,0 +1,152 @@
+"""Build a real cell from a `kind: real` cell file: a UR arm over ur_rtde behind the safety layer,
+a Robotiq gripper over Modbus, OpenCV cameras, and the FingerVision perception stage on them.
+
+Sections: `arm` (UrConfig fields, `driver: ur_rtde`), `gripper` (RobotiqConfig fields, `driver:
+robotiq_modbus`, `activate`), `cameras` (finger -> CameraConfig fields), `perception` (`source:
+fingervision | none`, `preset`, `marker_maps`, `stale_after`, `calibration_timeout`), `safety`
+(SafetyLimits fields), and for cells of loopback emulators only `emulation` (`time_scale`, back-door
+ports, `pad_stiffness`). The whole file is checked before any device is touched. See
+drivers/cells/ur_robotiq.yaml and drivers/cells/emulated.yaml; a cell whose perception is a shadow
+world (drivers/cells/emulated_shadow.yaml) is built by drivers/emulators/shadow.py on top of this.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+from drivers.cell import Cell
+from drivers.cell_builders import CellRequest
+from drivers.cell_file import CellFileError, check_known, config_from, section
+from drivers.clock import WallClock
+from drivers.hardware.camera import CameraConfig, OpenCvCamera
+from drivers.hardware.gripper_modbus import RobotiqConfig, RobotiqGripper
+from drivers.hardware.ur import UrArm, UrConfig
+from drivers.safety import SafeArm, SafetyLimits
+from perception.state import FINGERS, TactileState
+
+SECTIONS = {"kind", "name", "arm", "gripper", "cameras", "perception", "safety", "emulation"}
+PERCEPTION_FIELDS = {"source", "preset", "marker_maps", "stale_after", "calibration_timeout"}
+PERCEPTION_SOURCES = ("fingervision", "none")
+
+
+@dataclass(frozen=True)
+class Emulation:
+    """The cell file's `emulation:` section, for cells whose devices are the loopback emulators."""
+
+    time_scale: float = 1.0  # emulated seconds per wall second: the emulators and the cell clock
+    arm_backdoor_port: int = 30999  # where the shadow world hands the UR emulator its loads
+    gripper_backdoor_port: int = 30998  # where the shadow world tells the gripper emulator about objects
+    pad_stiffness: float = 5000.0  # N/m, the FingerVision gel pads on the emulated fingers (as sim.yaml)
+
+    def __post_init__(self):
+        if not 0 < self.time_scale <= 100:
+            raise ValueError(f"time_scale must be in (0, 100], got {self.time_scale}")
+        if self.pad_stiffness <= 0:
+            raise ValueError(f"pad_stiffness must be positive, got {self.pad_stiffness}")
+
+
+def parse(path: Path, data: dict, shadow: bool = False) -> dict[str, Any]:
+    """Validate the whole file before touching any hardware; `shadow` also admits the shadow
+    world's perception fields (checked by its builder)."""
+    check_known(path, data, SECTIONS)
+    try:
+        limits = SafetyLimits.from_dict(section(path, data, "safety", required=True))
+    except (TypeError, ValueError) as exc:
+        raise CellFileError(path, "safety", str(exc)) from None
+    gripper = dict(section(path, data, "gripper", required=True))
+    activate = gripper.pop("activate", True)
+    cameras = {name: config_from(path, f"cameras.{name}", CameraConfig, spec if isinstance(spec, dict)
+                                 else {"source": spec})
+               for name, spec in section(path, data, "cameras").items()}
+    perception = parse_perception(path, data, cameras, shadow)
+    arm = config_from(path, "arm", UrConfig, section(path, data, "arm", required=True), driver="ur_rtde")
+    grip = config_from(path, "gripper", RobotiqConfig, gripper, driver="robotiq_modbus")
+    return {
+        "name": data.get("name", path.stem), "limits": limits, "arm": arm, "gripper": grip,
+        "activate": bool(activate), "cameras": cameras, "perception": perception,
+        "emulation": parse_emulation(path, data, shadow, (arm.host, grip.host)),
+    }
+
+
+def parse_perception(path: Path, data: dict, cameras: dict, shadow: bool = False) -> dict[str, Any]:
+    """The `perception` section, with its `source` filled in."""
+    known = PERCEPTION_FIELDS | ({"sensor", "world"} if shadow else set())
+    perception = section(path, data, "perception", known=known)
+    source = perception.get("source", "fingervision" if cameras else "none")
+    sources = PERCEPTION_SOURCES + (("shadow",) if shadow else ())
+    if source not in sources:
+        raise CellFileError(path, "perception.source",
+                            f"unknown source {source!r}; expected {', '.join(sources)}")
+    if source == "fingervision" and set(FINGERS) - set(cameras):
+        raise CellFileError(path, "cameras", f"perception.source fingervision needs cameras {', '.join(FINGERS)}")
+    return {**perception, "source": source}
+
+
+def parse_emulation(path: Path, data: dict, shadow: bool, hosts: tuple[str, str]) -> Emulation:
+    """The `emulation` section. It, and a shadow world, need the loopback emulators: only they
+    run faster than real time or take object widths from a shadow world."""
+    emulation = section(path, data, "emulation")
+    if emulation or shadow:
+        why = "an emulation section" if emulation else "perception.source shadow"
+        for where, host in zip(("arm.host", "gripper.host"), hosts):
+            if not host.startswith("127."):
+                raise CellFileError(path, where, f"{why} needs the loopback emulators, but {host} "
+                                    "is not a loopback address (a real robot runs in real time)")
+    return config_from(path, "emulation", Emulation, emulation)
+
+
+def no_perception(clock) -> Callable[[], dict[str, TactileState]]:
+    """The perception source of a cell without one: unhealthy states that say why."""
+    reason = "this cell has no perception source (perception.source: none); run with scripted perception"
+    return lambda: {f: TactileState(f, clock.now(), healthy=False, health_reason=reason) for f in FINGERS}
+
+
+def connect(spec: dict[str, Any], clock: WallClock, closers: list[Callable[[], None]]
+            ) -> tuple[UrArm, SafeArm, RobotiqGripper, dict[str, OpenCvCamera]]:
+    """Connect arm (behind the safety layer), gripper and cameras of a parsed cell file; each
+    device's close joins `closers` as soon as it is open."""
+    arm = UrArm(spec["arm"], clock)
+    closers.append(arm.close)
+    safe = SafeArm(arm, spec["limits"], clock)
+    safe.start_watchdog()  # runs from the first tick on
+    closers.append(safe.stop_watchdog)
+    gripper = RobotiqGripper(spec["gripper"])
+    closers.append(gripper.close)
+    if spec["activate"]:
+        gripper.activate()
+    cameras = {name: OpenCvCamera(name, cfg, clock) for name, cfg in spec["cameras"].items()}
+    closers.extend(c.close for c in cameras.values())
+    return arm, safe, gripper, cameras
+
+
+def closing_on_error(closers: list[Callable[[], None]], build: Callable[[], Cell]) -> Cell:
+    """`build()`, closing whatever it opened (in reverse) if it raises."""
+    try:
+        return build()
+    except BaseException:
+        for close in reversed(closers):
+            close()
+        raise
+
+
+def build_real_cell(path: Path, data: dict, request: CellRequest) -> Cell:
+    """Connect every device of the cell file (arm, gripper, cameras) and return the Cell."""
+    spec = parse(Path(path), data)
+    clock = WallClock(1.0 / request.tick_hz, spec["emulation"].time_scale)
+    closers: list[Callable[[], None]] = []
+
+    def build() -> Cell:
+        _, safe, gripper, cameras = connect(spec, clock, closers)
+        p = spec["perception"]
+        if p["source"] == "fingervision":
+            from drivers.hardware.camera_sense import fingervision_sense
+
+            sense = fingervision_sense(cameras, clock, p.get("preset", "fast"), p.get("marker_maps"),
+                                       p.get("stale_after", 0.5), p.get("calibration_timeout", 5.0))
+        else:
+            sense = no_perception(clock)
+        return Cell(spec["name"], safe, gripper, clock, sense, cameras=cameras, closers=closers)
+
+    return closing_on_error(closers, build)

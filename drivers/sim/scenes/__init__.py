@@ -1,0 +1,57 @@
+"""The simulated scenes a tree can ask for (`cell: {scene: NAME}`), each built around an arm and
+a gripper, and the signal-level perception source that reads a scene through the FingerVision
+contact model."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Callable
+
+from drivers.cell_file import CellFileError, section
+from drivers.protocols import Clock, PerceptionSource, World
+from drivers.sim.models.fingervision_model import SensorModel
+from drivers.sim.scenes import assembly, followme, handover, hold, press, stick, stir
+from perception.errors import did_you_mean
+from perception.state import FINGERS
+
+# name -> builder(arm, gripper, scene_args, world settings, seed) -> World
+SCENES: dict[str, Callable[..., World]] = {
+    "assembly": assembly.build,
+    "hold": hold.build,
+    "followme": followme.build,
+    "handover": handover.build,
+    "inhand": stick.builder("inhand"),
+    "inhand_light": stick.builder("inhand_light"),
+    "armrot": stick.builder("armrot"),
+    "press": press.build,
+    "stir": stir.build,
+}
+
+SENSOR_FIELDS = set(SensorModel.__dataclass_fields__) - {"finger", "seed"}
+WORLD_FIELDS = set(assembly.SceneConfig.__dataclass_fields__) - {"seed"}
+
+
+def world_settings(path: Path, data: dict, where: str = "") -> tuple[dict, dict]:
+    """The `sensor:` and `world:` settings of a cell file section at `where`, checked."""
+    return (section(path, data, "sensor", known=SENSOR_FIELDS, where=where),
+            section(path, data, "world", known=WORLD_FIELDS, where=where))
+
+
+def build_world(path: Path, settings: tuple[dict, dict], arm, gripper, clock: Clock, scene: str,
+                scene_args: dict, seed: int) -> tuple[World, dict[str, SensorModel], PerceptionSource]:
+    """The scene a tree needs around `arm` and `gripper`, with the (sensor, world) `settings`:
+    returns the world, its two FingerVision sensor models and the signal-level perception source
+    reading them."""
+    sensor_cfg, world_cfg = settings
+    if scene not in SCENES:
+        raise CellFileError(path, "scene", f"no simulated scene {scene!r}",
+                            did_you_mean(scene, SCENES) or f"known: {', '.join(sorted(SCENES))}")
+    world = SCENES[scene](arm, gripper, scene_args, world_cfg, seed)
+    sensors = {f: SensorModel(f, seed=seed * 2 + i, **sensor_cfg) for i, f in enumerate(FINGERS)}
+
+    def sense():
+        contacts = world.contacts()
+        now = clock.now()
+        return {f: sensors[f].state(contacts[f], now) for f in FINGERS}
+
+    return world, sensors, sense

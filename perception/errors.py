@@ -1,0 +1,46 @@
+"""The one root of every error a user acts on: what went wrong, where (file, line, field or node
+path), a hint, and the exit code the command line gives it. It sits in the bottom package so that
+every package can raise it."""
+
+from __future__ import annotations
+
+import difflib
+from typing import Iterable
+
+
+class FvtreeError(Exception):
+    """A located, actionable error: `file:line: field: message (hint)`; exit code 2."""
+
+    exit_code = 2
+
+    def __init__(self, message: str, file: str | None = None, line: int | None = None,
+                 field: str | None = None, hint: str | None = None):
+        super().__init__(message)
+        self.message, self.file, self.line, self.field, self.hint = message, file, line, field, hint
+
+    def __str__(self) -> str:
+        where = ":".join(str(p) for p in (self.file, self.line) if p is not None)
+        text = f"{where}: " if where else ""
+        if self.field:
+            text += f"{self.field}: "
+        text += self.message
+        if self.hint:
+            text += f" ({self.hint})"
+        return text
+
+
+class FvtreeErrors(FvtreeError):
+    """Every problem found while checking one input, reported together."""
+
+    def __init__(self, errors: list[FvtreeError]):
+        super().__init__("\n".join(map(str, errors)))
+        self.errors = errors
+
+    def __str__(self) -> str:
+        return self.message
+
+
+def did_you_mean(word: object, options: Iterable[object]) -> str | None:
+    """'did you mean X?' for the closest option, or None."""
+    close = difflib.get_close_matches(str(word), [str(o) for o in options], n=1, cutoff=0.6)
+    return f"did you mean {close[0]!r}?" if close else None
