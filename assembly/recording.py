@@ -10,8 +10,9 @@ from pathlib import Path
 import numpy as np
 from py_trees.blackboard import Blackboard
 
+from assembly.blackboard import clear_blackboard
 from assembly.loader import build, load_tree
-from assembly.runner import Runner, clear_blackboard
+from assembly.runner import Runner
 from behaviours import keys
 from drivers.cell_builders import load_cell
 from perception.learning.dataset import Recording
@@ -41,8 +42,10 @@ def record_run(tree_path: str | Path, cell: str = "sim", seed: int = 0, max_time
         labels.append(world.labels() if hasattr(world, "labels") else {})
         return states
 
+    runner = Runner(build(doc), the_cell, sense=sense, max_time=max_time)
     try:
-        result = Runner(build(doc), the_cell, sense=sense).run(max_time=max_time)
+        runner.setup()
+        result = runner.run()
     finally:
         the_cell.close()
     segments.append(trial())

@@ -3,14 +3,19 @@
 
 from __future__ import annotations
 
-import sys
+import gc
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Iterator
 
+from assembly.blackboard import clear_blackboard
 from assembly.design import DesignBridge, DesignModel
 from assembly.errors import TreeError
 from assembly.loader import build, load_tree
+from assembly.progress import end_stderr_progress, stderr_progress
 from assembly.report import format_summary, plot_profiles, summarize, write_summary
-from assembly.runner import Runner, clear_blackboard, new_run_dir, stderr_progress
+from assembly.run_dir import new_run_dir
+from assembly.runner import Runner
 from drivers.cell_builders import load_cell
 
 
@@ -47,17 +52,18 @@ def run_tree(tree_path: str, cell: str = "sim", seed: int = 0, realtime: bool = 
     if resume and the_cell.world is not None and design is not None:
         _stand_placed(the_cell.world, design)
     built = build(doc)
-    say = (lambda line: None) if quiet else stderr_progress
     if bridge:
         bridge.event("start", tree=str(tree_path), cell=cell, seed=seed, resume=bool(resume))
-    runner = Runner(built, the_cell, run_dir, bridge, realtime=realtime, progress=say)
-    runner.estop_at = estop_at
+    runner = Runner(built, the_cell, run_dir, bridge, realtime=realtime,
+                    progress=None if quiet else stderr_progress, estop_at=estop_at, max_time=max_time)
     try:
-        result = runner.run(max_time=max_time)
+        runner.setup()
+        with _frozen_heap():
+            result = runner.run()
     finally:
         the_cell.close()
-    if sys.stderr.isatty() and not quiet:
-        sys.stderr.write("\n")
+    if not quiet:
+        end_stderr_progress()
     summary = summarize(result, the_cell, bridge.model if bridge else None)
     summary["run_dir"] = str(run_dir)
     if plots:
@@ -70,6 +76,18 @@ def run_tree(tree_path: str, cell: str = "sim", seed: int = 0, realtime: bool = 
         print(format_summary(summary))
         print(f"  run directory: {run_dir}" + (f" (chart: {summary.get('plot')})" if summary.get("plot") else ""))
     return summary
+
+
+@contextmanager
+def _frozen_heap() -> Iterator[None]:
+    """Collect once, then keep every object alive so far out of the garbage collector's view
+    while the tick loop runs: a full collection over them pauses it for 100 ms or more."""
+    gc.collect()
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
 
 
 def _stand_placed(world, design: DesignModel) -> None:

@@ -1,6 +1,6 @@
 """Tick-by-tick testing of trees with mocked perception, for tree authors.
 
-    h = TreeHarness.from_text(TREE_YAML)                 # or TreeHarness("trees/x.yaml")
+    h = TreeHarness.from_text(TREE_YAML)                 # or TreeHarness.from_file("trees/x.yaml")
     h.script(lambda tick, t: {"left": touch("left", normal=5.0), "right": touch("right", normal=5.0)})
     h.tick(3)
     h.assert_status({"root/grasp": "RUNNING"})
@@ -10,7 +10,7 @@
 
 The mocked cell is a kinematic arm (behind the real safety layer) and a gripper that record
 every command; perception comes from a script: a function of (tick, time), or a table of rows
-`(from_tick, {finger: touch(...)})`. `TreeHarness(..., cell=load_cell(...))` runs the same
+`(from_tick, {finger: touch(...)})`. `TreeHarness.from_text(..., cell=load_cell(...))` runs the same
 tree on the full simulated cell instead, optionally with scripted perception on top.
 """
 
@@ -24,16 +24,19 @@ import numpy as np
 from py_trees.blackboard import Blackboard
 from py_trees.common import Status
 
+from assembly.blackboard import clear_blackboard
 from assembly.design import DesignModel
-from assembly.errors import did_you_mean
 from assembly.loader import BuiltTree, build, load_tree
-from assembly.runner import Runner, clear_blackboard
+from assembly.runner import Runner
 from drivers.cell import Cell
 from drivers.clock import SimClock
 from drivers.safety import SafeArm, SafetyLimits
 from drivers.sim.devices.arm import KinematicArm
-from drivers.sim.models.fingervision_model import FingerContact, SensorModel
 from drivers.sim.devices.gripper import SimGripper
+from drivers.sim.models.fingervision_model import FingerContact, SensorModel
+from drivers.sim.scenes.base import Scene
+from drivers.sim.scenes.grip import empty_contacts
+from perception.errors import did_you_mean
 from perception.state import FINGERS, ObjectInfo, TactileState
 
 HOME = np.array([0.0, 0.0, 0.5, np.pi, 0.0, 0.0])
@@ -96,7 +99,7 @@ class RecordingGripper(_Recorder):
         return self.inner.max_width
 
 
-class _MockWorld:
+class _MockWorld(Scene):
     """The least a mocked cell needs: integrate arm and gripper, feel nothing."""
 
     def __init__(self, arm, gripper):
@@ -105,6 +108,9 @@ class _MockWorld:
     def step(self, dt: float) -> None:
         self.arm.step(dt)
         self.gripper.step(dt)
+
+    def contacts(self) -> dict:
+        return empty_contacts()
 
 
 def mock_cell(tick_hz: float = 30.0, home=HOME, gripper_width: float = 0.085,
@@ -146,6 +152,7 @@ class TreeHarness:
     cell: Cell
     design: DesignModel | None = None
     _script: Script | None = field(default=None, repr=False)
+    _runner: Runner = field(init=False, repr=False)
 
     @classmethod
     def from_text(cls, text: str, cell: Cell | None = None, design: DesignModel | None = None,
@@ -160,13 +167,13 @@ class TreeHarness:
     @classmethod
     def load(cls, doc, cell: Cell | None, design: DesignModel | None) -> "TreeHarness":
         clear_blackboard()
-        harness = cls(build(doc), cell or mock_cell(doc.tick_hz), design or doc.design)
-        harness._runner = Runner(harness.tree, harness.cell, sense=harness._sense)
-        return harness
+        return cls(build(doc), cell or mock_cell(doc.tick_hz), design or doc.design)
 
     def __post_init__(self):
         if self.design is not None:
             self.tree.document.design = self.design
+        self._runner = Runner(self.tree, self.cell, sense=self._sense)
+        self._runner.setup()
 
     # ---- perception ------------------------------------------------------------------------
     def script(self, script: Script | list) -> "TreeHarness":
@@ -196,7 +203,7 @@ class TreeHarness:
         raise AssertionError(f"tree still RUNNING after {max_ticks} ticks at {self.tip()}")
 
     def halt(self) -> None:
-        """What Ctrl-C does: stop every running node and the arm."""
+        """What Ctrl-C does: stop every running node, the arm and the gripper."""
         self._runner.halt()
 
     @property

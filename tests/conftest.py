@@ -4,8 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import py_trees
 import pytest
+
+from assembly.blackboard import clear_blackboard
 
 ROOT = Path(__file__).resolve().parents[1]
 TREES = ROOT / "trees"
@@ -13,9 +14,9 @@ TREES = ROOT / "trees"
 
 @pytest.fixture(autouse=True)
 def clean_blackboard():
-    py_trees.blackboard.Blackboard.clear()
+    clear_blackboard()
     yield
-    py_trees.blackboard.Blackboard.clear()
+    clear_blackboard()
 
 
 @pytest.fixture

@@ -80,18 +80,17 @@ def test_estop_halts_then_resume_skips_placed_elements(tmp_path):
 def test_ctrl_c_halts_every_running_skill_and_stops_the_arm(tmp_path):
     doc = load_tree(ASSEMBLY)
     cell = load_cell("sim", doc.tick_hz, doc.scene, doc.design.scene_args())
-    runner = Runner(build(doc), cell, tmp_path)
-    sense = cell.sense
 
     def interrupt_at_tick_400():
         if runner.ticks == 400:
             raise KeyboardInterrupt
-        return sense()
+        return cell.sense()
 
-    runner.sense = interrupt_at_tick_400
+    runner = Runner(build(doc), cell, tmp_path, sense=interrupt_at_tick_400)
+    runner.setup()
     result = runner.run()
     assert result.status == "HALTED" and result.where.endswith("/scan")
-    assert not cell.arm.is_moving()
+    assert not cell.arm.is_moving() and not cell.gripper.is_moving()
     assert all(node.status.name == "INVALID" for node in runner.tree.nodes.values())
     assert lines(tmp_path / "transitions.jsonl")[-1]["to"] == "INVALID"
 
@@ -129,7 +128,9 @@ def test_safety_layer_clamps_a_target_outside_the_workspace():
     doc = load_tree(text="version: 1\nname: t\nroot: {skill: move_to, name: far, params: {pose: [2.0, 0, 0.5, 3.14159, 0, 0]}}\n",
                     name="far.yaml")
     cell = load_cell("sim", 30, "assembly", {})
-    result = Runner(build(doc), cell).run(max_time=30)
+    runner = Runner(build(doc), cell, max_time=30)
+    runner.setup()
+    result = runner.run()
     assert result.status == "SUCCESS"
     assert cell.arm.pose()[0] == pytest.approx(0.9) and cell.arm.clamped == 1
     assert np.all(cell.arm.pose()[:3] <= cell.arm.limits.workspace_max)

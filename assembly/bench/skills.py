@@ -16,9 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
+from assembly.blackboard import clear_blackboard
 from assembly.loader import build, load_tree
 from assembly.recording import record
-from assembly.runner import Runner, clear_blackboard
+from assembly.runner import Runner
 from drivers.cell_builders import load_cell
 from perception.learning.dataset import Recording
 
@@ -33,7 +34,9 @@ def run_tree_text(text: str, scene_args: dict, seed: int = 0) -> tuple[str, dict
         doc = load_tree(path)
     clear_blackboard()
     cell = load_cell("sim", doc.tick_hz, doc.scene, scene_args, seed=seed)
-    result = Runner(build(doc), cell).run(max_time=600.0)
+    runner = Runner(build(doc), cell, max_time=600.0)
+    runner.setup()
+    result = runner.run()
     return result.status, cell.world.metrics()
 
 

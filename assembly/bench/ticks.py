@@ -2,7 +2,7 @@
 the force regret of the placements.
 
 Runs trees/assembly.yaml on the simulated cell with several seeds and times every tick's parts
-(perception stage, tree tick, transition log, cell step) and each behaviour's own `update`.
+(each pre- and post-tick handler, the tree tick, the cell step) and each behaviour's own `update`.
 Writes ticks.csv, ticks.md and ticks.png. Targets: tree tick under 0.5 ms median (room for a
 500 Hz robot loop), the whole simulated assembly at least 100x faster than real time, and force
 regret under 1 % with 2 % force noise.
@@ -18,16 +18,17 @@ from pathlib import Path
 
 import numpy as np
 
+from assembly.blackboard import clear_blackboard
 from assembly.loader import build, load_tree
-from assembly.report import element_truth
-from assembly.runner import Runner, clear_blackboard, publish_perception
+from assembly.runner import Runner
 from drivers.cell_builders import load_cell
 
 TREE = Path(__file__).resolve().parents[2] / "trees" / "assembly.yaml"
 
 
 class TimedRunner(Runner):
-    """A Runner that records how long each part of every tick takes (seconds)."""
+    """A Runner that records how long each part of every tick takes (seconds): each pre- and
+    post-tick handler, the tree tick between them, the cell step and the whole tick."""
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
@@ -35,35 +36,43 @@ class TimedRunner(Runner):
         self.behaviour_times: dict[str, list[float]] = defaultdict(list)
         for path, node in self.tree.nodes.items():
             if not node.children:  # leaves: skills and conditions
-                node.update = self._timed(node.update, path)
+                node.update = self._timed(node.update, self.behaviour_times[path])
+        names = {self.stop_policy.before_tick: "stop policy", self.perception: "perception stage",
+                 self._kick_watchdog: "watchdog kick", self.tip: "tip", self.load_profiles: "load profiles",
+                 self.log: "transition log", self.progress: "progress"}
+        tree = self.behaviour_tree
+        # Parts in tick order: the marks time the tree tick (between the pre- and post-tick
+        # handlers) and the cell step (after the post-tick handlers).
+        pre = [self._timed(h, self.parts[names[h]]) for h in tree.pre_tick_handlers]
+        tree_tick = self.parts["tree tick"]
+        post = [self._timed(h, self.parts[names[h]]) for h in tree.post_tick_handlers]
+        self._cell_step, self._whole_tick = self.parts["cell step"], self.parts["whole tick"]
+        tree.pre_tick_handlers[:] = [*pre, self._mark]
+        tree.post_tick_handlers[:] = [lambda _: tree_tick.append(time.perf_counter() - self._last_mark),
+                                      *post, self._mark]
+        self._last_mark = 0.0
 
-    def _timed(self, update, path):
-        clock, sink = time.perf_counter, self.behaviour_times[path]
+    @staticmethod
+    def _timed(function, sink: list[float]):
+        clock = time.perf_counter
 
-        def timed():
+        def timed(*args):
             t0 = clock()
-            status = update()
+            result = function(*args)
             sink.append(clock() - t0)
-            return status
+            return result
         return timed
 
+    def _mark(self, tree) -> None:
+        self._last_mark = time.perf_counter()
+
     def tick(self):
-        clock = time.perf_counter
-        t0 = clock()
-        publish_perception(self.cell, self.sense())
-        t1 = clock()
-        self.tree.root.tick_once()
-        self.cell.arm.kick()
-        t2 = clock()
-        self._record(self.cell.clock.now())
-        t3 = clock()
-        self.ticks += 1
-        self.cell.step()
-        t4 = clock()
-        for name, dt in (("perception stage", t1 - t0), ("tree tick", t2 - t1),
-                         ("transition log", t3 - t2), ("cell step", t4 - t3), ("whole tick", t4 - t0)):
-            self.parts[name].append(dt)
-        return self.tree.root.status
+        start = time.perf_counter()
+        status = super().tick()
+        end = time.perf_counter()
+        self._cell_step.append(end - self._last_mark)
+        self._whole_tick.append(end - start)
+        return status
 
 
 def _one_run(timed: bool, seed: int = 0, cell_file: str = "sim"):
@@ -73,10 +82,12 @@ def _one_run(timed: bool, seed: int = 0, cell_file: str = "sim"):
     cell = load_cell(cell_file, doc.tick_hz, doc.scene, doc.design.scene_args(), seed=seed)
     cls = TimedRunner if timed else Runner
     runner = cls(build(doc), cell)
+    runner.setup()
     result = runner.run()
     if result.status != "SUCCESS":
         raise RuntimeError(f"benchmark run ended {result.status}: {result.message}")
-    regrets = [element_truth(cell.world, e)["regret"] for e in doc.design.build_order()]
+    truth = cell.world.truth()
+    regrets = [truth[e]["regret"] for e in doc.design.build_order()]
     return doc, runner, result, regrets
 
 
@@ -157,6 +168,7 @@ def run(out_dir: Path, quick: bool = False) -> list[Path]:
     left.bar([r[1] for r in stage], [r[4] - r[3] for r in stage], bottom=[r[3] for r in stage],
              color="C0", alpha=0.3, label="to p95")
     left.set_ylabel("µs per tick")
+    left.tick_params(axis="x", labelrotation=30)
     left.set_title(f"tick parts (tree tick median {tree_median * 1000:.0f} µs; RTF {rtf:.0f}x)")
     left.legend()
     beh = [r for r in rows if r[0] == "behaviour µs"]
