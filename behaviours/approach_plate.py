@@ -30,14 +30,14 @@ class ApproachPlate(ProgramSkill):
         "foot_clearance": Param("float", "height of the element's foot above the ground", 0.04, "m", min=0.0),
         "speed": Param("float", "travel speed", 0.15, "m/s", min=0.001),
     }
-    READS = (keys.ELEMENT, keys.PLATES, keys.ELEMENT_LENGTH)
+    READS = (keys.ELEMENT, keys.PLATES, keys.ELEMENT_LENGTH, keys.ROBOT_POSE, keys.ROBOT_FAULT, keys.ROBOT_MOVING)
 
     def program(self):
         element = self.read(keys.ELEMENT)
         plate = plate_of(element, self.read(keys.PLATES, {}))
         length = self.read(keys.ELEMENT_LENGTH, element["size"][0])
         origin = np.asarray(plate["origin"], float)
-        target = self.cell.arm.pose()
+        target = self.pose()
         target[0] = origin[0] + self.p.at * plate["span"]
         target[1] = origin[1] - plate["width"] / 2.0 - self.p.side
         target[2] = length / 2.0 + self.p.foot_clearance

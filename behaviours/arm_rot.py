@@ -10,7 +10,7 @@ import numpy as np
 from py_trees.common import Status
 
 from behaviours import keys
-from behaviours.base import Param, ProgramSkill
+from behaviours.base import Param, ProgramSkill, time_limit
 from behaviours.geometry import angle_between, rotation
 from behaviours.hand import hand_torque, object_area
 from behaviours.registry import register
@@ -26,33 +26,40 @@ class ArmRot(ProgramSkill):
         "eps": Param("float", "torque that counts as zero", 0.02, "px", min=0.0),
         "settle": Param("int", "ticks the torque must stay below eps", 5, min=1),
         "max_angle": Param("float", "give up after turning this far", 180.0, "deg", min=1.0, max=360.0),
+        "max_time": time_limit(30.0),
     }
-    READS = (keys.FV_LEFT, keys.FV_RIGHT)
+    READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT)
     WRITES = (keys.ARM_ROTATION,)
 
     def program(self):
         arm = self.cell.arm
-        start = arm.pose()
+        start, t0 = self.pose(), self.now()
         if object_area(*self.tactile()) <= 0.0:
             return self.fail("nothing held between the fingers to balance")
         quiet = 0
         while quiet < self.p.settle:
             torque = hand_torque(*self.tactile())
-            pose = arm.pose()
+            pose = self.pose()
             turned = math.degrees(angle_between(start, pose))
             if turned > self.p.max_angle:
                 arm.stop()
                 return self.fail(f"turned {turned:.0f} deg and the torque is still {torque:.2f} px: "
                                  "is the object caught on something?")
-            if arm.fault():
-                return self.fail(f"arm fault: {arm.fault()}")
+            if self.now() - t0 > self.p.max_time:
+                arm.stop()
+                return self.fail(f"the torque did not settle below {self.p.eps} px within "
+                                 f"{self.p.max_time:.0f} s (now {torque:.2f} px, turned {turned:.0f} deg): "
+                                 "lower the gain if the wrist swings back and forth")
+            fault = self.arm_fault()
+            if fault:
+                return self.fail(f"arm fault: {fault}")
             quiet = quiet + 1 if abs(torque) < self.p.eps else 0
             rate = float(np.clip(self.p.gain * torque, -self.p.max_speed, self.p.max_speed))
             arm.speed_linear(np.r_[0.0, 0.0, 0.0, rotation(pose)[:, 1] * rate])
             self.feedback_message = f"torque {torque:.2f} px, turned {turned:.1f} deg"
             yield
         arm.stop()
-        turned = math.degrees(angle_between(start, arm.pose()))
+        turned = math.degrees(angle_between(start, self.pose()))
         self.write(keys.ARM_ROTATION, turned)
         self.feedback_message = f"torque vanished after turning {turned:.1f} deg"
         return Status.SUCCESS

@@ -1,19 +1,44 @@
 """The base class of every tactile skill: declared parameters, blackboard keys and cell access.
 
-A skill declares `PARAMS` (type, default, unit, description, range), `READS` and `WRITES`
-(blackboard keys). The YAML loader validates a tree against these declarations before the first
-tick, `fvtree skills` prints them and `fvtree schema` turns them into JSON Schema.
+Rules for skill authors:
+
+- Declare everything. `PARAMS` gives each parameter's type, default, unit, range and meaning;
+  `READS` and `WRITES` name every blackboard key the skill reads or writes. The YAML loader checks
+  a tree against these before the first tick, `fvtree skills` prints them and `fvtree schema`
+  turns them into JSON Schema. The blackboard client refuses an undeclared key.
+- Read state from the blackboard, send commands to the cell. The perception stage writes one
+  snapshot per tick before the tree ticks: the fingertips (/fv/left, /fv/right) and the arm and
+  gripper state (/robot/pose, /robot/wrench, /robot/fault, /robot/moving, /gripper/width,
+  /gripper/object, /gripper/fault, /gripper/moving). Read them with `tactile()`, `pose()`,
+  `arm_fault()`, `arm_moving()`, `gripper_width()`, `gripper_object()`, `gripper_fault()` and
+  `gripper_moving()` (or `read(key)`), never from the devices, so every skill of a tick sees
+  the same state even while a driver thread updates it. Commands (`move_linear`,
+  `speed_linear`, `stop`, `gripper.move`, `gripper.stop`) go to `self.cell.arm` and
+  `self.cell.gripper`; constants (`gripper.max_width`, `gripper.max_speed`,
+  `cell.clock.period`) may be read from the cell.
+- The snapshot is taken at the start of the tick: a command sent in this tick shows in the
+  snapshot of the next one. After commanding a motion, yield before testing whether it is still
+  moving (`ProgramSkill.move` and `ProgramSkill.grip` do).
+- Stop what you started. A skill that ends by itself (SUCCESS or FAILURE) stops the motion it
+  commanded; a skill halted mid-run (RUNNING -> INVALID) has its arm and gripper stopped by
+  `Skill.terminate`, so an override must call `super().terminate(new_status)`.
+- End within a bound. Every skill ends by itself within a bound it can state (a `max_time`, a
+  travel or angle limit, a tick budget, the timeout of each move), or sets
+  `RUNS_UNTIL_HALTED = True` when it runs until its parent halts it (`estop_guard`). A skill
+  whose `duration` 0 means "until halted" says so in `runs_until_halted(params)`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from types import SimpleNamespace
-from typing import Any, ClassVar
+from typing import Any, Callable, ClassVar
 
 import numpy as np
 import py_trees
 from py_trees.common import Access, Status
+
+from behaviours import keys
 
 REQUIRED = object()  # sentinel: the parameter has no default
 
@@ -66,11 +91,16 @@ class Param:
         return out
 
 
+def time_limit(default: float, doc: str = "give up after this long") -> Param:
+    """The `max_time` param that bounds a skill which could otherwise wait forever."""
+    return Param("float", doc, default, "s", min=0.1)
+
+
 class Skill(py_trees.behaviour.Behaviour):
     """A py_trees behaviour with declared parameters that acts on the cell.
 
-    Subclasses set NAME, PARAMS, READS and WRITES, and implement `initialise`, `update` and
-    `terminate`; `terminate` must leave the robot safe (stop motion) when interrupted.
+    Subclasses set NAME, PARAMS, READS and WRITES and implement `initialise` and `update`
+    (see the module docstring for the rules they follow).
     """
 
     NAME: ClassVar[str] = ""
@@ -78,6 +108,7 @@ class Skill(py_trees.behaviour.Behaviour):
     PARAMS: ClassVar[dict[str, Param]] = {}
     READS: ClassVar[tuple[str, ...]] = ()
     WRITES: ClassVar[tuple[str, ...]] = ()
+    RUNS_UNTIL_HALTED: ClassVar[bool] = False  # True: never ends by itself, its parent halts it
 
     def __init__(self, name: str, resolved: dict[str, Any] | None = None, **params: Any):
         """`params` are checked and completed with defaults; `resolved` params (from the tree
@@ -115,11 +146,25 @@ class Skill(py_trees.behaviour.Behaviour):
     def validate(cls, params: dict[str, Any]) -> None:
         """Cross-parameter checks; raise ValueError with an actionable message."""
 
+    @classmethod
+    def runs_until_halted(cls, params: dict[str, Any]) -> bool:
+        """Whether the skill with these (resolved) params runs until halted instead of ending
+        by itself; skills whose `duration` 0 means "until halted" override it."""
+        return cls.RUNS_UNTIL_HALTED
+
     def setup(self, **kwargs: Any) -> None:
         cell = kwargs.get("cell")
         if cell is None:
             raise RuntimeError(f"skill {self.name!r} needs tree.setup(cell=...) before ticking")
         self.cell = cell
+
+    def terminate(self, new_status: Status) -> None:
+        """Halted mid-run (RUNNING -> INVALID): stop the arm and the gripper, whatever this
+        skill commanded. A skill that had already finished leaves the devices alone, since a
+        sibling may be moving them."""
+        if new_status == Status.INVALID and self.status == Status.RUNNING and self.cell is not None:
+            self.cell.arm.stop()
+            self.cell.gripper.stop()
 
     # Helpers shared by skills ----------------------------------------------------------
     def now(self) -> float:
@@ -137,17 +182,44 @@ class Skill(py_trees.behaviour.Behaviour):
 
     def tactile(self):
         """(left, right) TactileStates of this tick."""
-        return self.bb.get("/fv/left"), self.bb.get("/fv/right")
+        return self.bb.get(keys.FV_LEFT), self.bb.get(keys.FV_RIGHT)
 
     def fail(self, message: str) -> Status:
         self.feedback_message = message
         self.logger.warning(f"{self.name}: {message}")
         return Status.FAILURE
 
-    def stop_arm_if_interrupted(self, new_status: Status) -> None:
-        """Stop any motion this skill started when it is halted from outside."""
-        if new_status == Status.INVALID and self.cell is not None:
-            self.cell.arm.stop()
+    # This tick's robot state, from the perception stage's snapshot ------------------------
+    def _state(self, key: str) -> Any:
+        try:
+            return self.bb.get(key)
+        except KeyError:
+            raise RuntimeError(f"skill {self.name!r}: {key} is not on the blackboard; tick skills "
+                               "through the Runner, whose perception stage writes it") from None
+
+    def pose(self) -> np.ndarray:
+        """TCP pose [x, y, z, rx, ry, rz] at the start of the tick (a copy: yours to change)."""
+        return np.array(self._state(keys.ROBOT_POSE), dtype=float)
+
+    def arm_fault(self) -> str | None:
+        return self._state(keys.ROBOT_FAULT)
+
+    def arm_moving(self) -> bool:
+        """A move or twist was in progress at the start of the tick."""
+        return bool(self._state(keys.ROBOT_MOVING))
+
+    def gripper_width(self) -> float:
+        return float(self._state(keys.GRIPPER_WIDTH))
+
+    def gripper_object(self) -> bool:
+        """The fingers had stopped on an object at the start of the tick."""
+        return bool(self._state(keys.GRIPPER_OBJECT))
+
+    def gripper_fault(self) -> str | None:
+        return self._state(keys.GRIPPER_FAULT)
+
+    def gripper_moving(self) -> bool:
+        return bool(self._state(keys.GRIPPER_MOVING))
 
 
 def summed_force(left, right) -> np.ndarray:
@@ -159,7 +231,7 @@ class ProgramSkill(Skill):
     """A skill written as a generator: `program()` yields once per tick and returns a Status.
 
     Multi-phase skills (move, measure, decide) then read top to bottom. Interrupting the skill
-    closes the generator and stops the arm.
+    closes the generator and stops the arm and the gripper.
     """
 
     def initialise(self) -> None:
@@ -182,23 +254,49 @@ class ProgramSkill(Skill):
         if program is not None:
             program.close()
             self._program = None
-        self.stop_arm_if_interrupted(new_status)
+        super().terminate(new_status)
 
     # Steps usable with `yield from` ---------------------------------------------------------
-    def move(self, pose, speed: float, timeout: float = 60.0):
-        """Linear move to `pose`; yields until arrival. Returns None, or a fault text."""
+    def move(self, pose, speed: float, timeout: float = 60.0,
+             watch: Callable[[], str | None] | None = None):
+        """Linear move to `pose`; yields until arrival and returns None, or why it stopped short.
+
+        Needs /robot/fault and /robot/moving in READS. `watch`, called once per tick while the
+        arm moves, may return a reason to stop the arm and abort (e.g. slip in the grasp)."""
         arm = self.cell.arm
         arm.move_linear(np.asarray(pose, dtype=float), speed)
         deadline = self.now() + timeout
         while True:
-            yield
-            if arm.fault():
-                return f"arm fault during move: {arm.fault()}"
-            if not arm.is_moving():
+            yield  # the snapshot shows the move from the next tick on
+            fault = self.arm_fault()
+            if fault:
+                return f"arm fault during move: {fault}"
+            reason = watch() if watch is not None else None
+            if reason:
+                arm.stop()
+                return reason
+            if not self.arm_moving():
                 return None
             if self.now() > deadline:
                 arm.stop()
                 return f"move did not finish within {timeout:.0f} s"
+
+    def grip(self, width: float, speed: float, force: float, timeout: float = 10.0):
+        """Move the fingers to `width`; yields until they stop (at the width or on an object)
+        and returns None, or why not. Needs /gripper/fault and /gripper/moving in READS."""
+        gripper = self.cell.gripper
+        gripper.move(width, speed=speed, force=force)
+        deadline = self.now() + timeout
+        while True:
+            yield  # the snapshot shows the motion from the next tick on
+            fault = self.gripper_fault()
+            if fault:
+                return f"gripper fault: {fault}"
+            if not self.gripper_moving():
+                return None
+            if self.now() > deadline:
+                gripper.stop()
+                return f"the fingers did not stop within {timeout:.0f} s"
 
     def mean_force(self, ticks: int):
         """Average summed finger force over the next `ticks` ticks."""

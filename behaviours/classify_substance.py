@@ -27,7 +27,7 @@ class ClassifySubstance(UsesModel, ProgramSkill):
         "min_confidence": Param("float", "fail below this probability of the best class", 0.6, min=0.0, max=1.0),
         "min_drag": Param("float", "mean marker force below this means the stick is not in anything", 0.05, "px", min=0.0),
     }
-    READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.STIR_TRIAL)
+    READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.STIR_TRIAL, keys.ROBOT_POSE, keys.ROBOT_FAULT, keys.ROBOT_MOVING)
     WRITES = (keys.SUBSTANCE, keys.STIR_TRIAL)
 
     def program(self):

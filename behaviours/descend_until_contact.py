@@ -20,26 +20,28 @@ class DescendUntilContact(ProgramSkill):
         "max_travel": Param("float", "give up after descending this far", 0.15, "m", min=0.0),
         "reference_ticks": Param("int", "ticks averaged for the reference force f_0", 5, min=1),
     }
-    READS = (keys.FV_LEFT, keys.FV_RIGHT)
+    READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT)
     WRITES = (keys.CONTACT_POSE,)
 
     def program(self):
         arm = self.cell.arm
         f0 = yield from self.mean_force(self.p.reference_ticks)
-        start_z = arm.pose()[2]
+        start_z = self.pose()[2]
         arm.speed_linear(np.array([0.0, 0.0, -self.p.speed, 0.0, 0.0, 0.0]))
         while True:
             yield
             left, right = self.tactile()
             change = float(np.linalg.norm(summed_force(left, right) - f0))
-            travelled = start_z - arm.pose()[2]
+            pose = self.pose()
+            travelled = start_z - pose[2]
             self.feedback_message = f"down {travelled * 1000:.1f} mm, |f - f0| = {change:.2f}"
             if change > self.p.eps:
                 arm.stop()
-                self.write(keys.CONTACT_POSE, arm.pose())
+                self.write(keys.CONTACT_POSE, pose)
                 return Status.SUCCESS
-            if arm.fault():
-                return self.fail(f"arm fault: {arm.fault()}")
+            fault = self.arm_fault()
+            if fault:
+                return self.fail(f"arm fault: {fault}")
             if travelled > self.p.max_travel:
                 arm.stop()
                 return self.fail(f"no contact within {self.p.max_travel} m of descent")

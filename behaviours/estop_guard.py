@@ -15,6 +15,7 @@ class EstopGuard(Skill):
     NAME = "estop_guard"
     SUMMARY = "RUNNING and holding the cell still while the e-stop is set; FAILURE otherwise"
     READS = (keys.ESTOP,)
+    RUNS_UNTIL_HALTED = True  # RUNNING for as long as the e-stop stays set
 
     def update(self) -> Status:
         if not self.read(keys.ESTOP, False):

@@ -27,7 +27,8 @@ class FindMaxLoad(ProgramSkill):
         "min_load": Param("float", "a peak below this means the plate was never touched", 0.5, "px", min=0.0),
         "reference_ticks": Param("int", "ticks averaged for the unloaded reference", 10, min=1),
     }
-    READS = (keys.ELEMENT, keys.PLATES, keys.FV_LEFT, keys.FV_RIGHT)
+    READS = (keys.ELEMENT, keys.PLATES, keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT,
+             keys.ROBOT_MOVING)
     WRITES = (keys.LOAD_PROFILE, keys.BEST_POSE, keys.MEASURED_LOAD)
 
     @classmethod
@@ -37,13 +38,12 @@ class FindMaxLoad(ProgramSkill):
             raise ValueError(f"span must run forward, got [{lo}, {hi}]")
 
     def program(self):
-        arm = self.cell.arm
         element = self.read(keys.ELEMENT)
         plate = plate_of(element, self.read(keys.PLATES, {}))
         x0, span = float(plate["origin"][0]), float(plate["span"])
         start, end = (x0 + f * span for f in self.p.span)
 
-        pose = arm.pose()
+        pose = self.pose()
         pose[2] += self.p.lift
         fault = yield from self.move(pose, 0.01)
         if fault:
@@ -57,16 +57,19 @@ class FindMaxLoad(ProgramSkill):
             return self.fail(fault)
 
         positions, loads = [], []
-        arm.move_linear(np.r_[end, pose[1:]], self.p.speed)
-        while arm.is_moving():
-            yield
-            if arm.fault():
-                return self.fail(f"arm fault: {arm.fault()}")
+
+        def sample() -> None:
             left, right = self.tactile()
             # The plate pushes the upright element down its axis (image x of both fingers).
-            positions.append(arm.pose()[0] - x0)
+            positions.append(self.pose()[0] - x0)
             loads.append(-(summed_force(left, right) - f_ref)[0])
             self.feedback_message = f"scan at {positions[-1]:.3f} m, load {loads[-1]:.2f}"
+
+        # Twice the time the scan should take, and a margin for the controller to get going.
+        timeout = 2.0 * abs(end - start) / self.p.speed + 10.0
+        fault = yield from self.move(np.r_[end, pose[1:]], self.p.speed, timeout, watch=sample)
+        if fault:
+            return self.fail(fault)
 
         peak = locate_peak(positions, loads, self.p.smoothing, self.p.fit_half_width)
         profile = {"plate": element["plate"], "position": np.array(positions), "load": np.array(loads),

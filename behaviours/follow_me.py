@@ -23,13 +23,18 @@ class TrackingSkill(ProgramSkill):
         "axes": Param("str", "tool axes to follow (any of x, y, z; y is the fingers' closing axis)", "xyz"),
         "lost_area": Param("float", "object area below this share of the starting area means it is lost", 0.02, min=0.0, max=1.0),
     }
-    READS = (keys.FV_LEFT, keys.FV_RIGHT)
+    READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT)
 
     @classmethod
     def validate(cls, params) -> None:
         axes = params["axes"]
         if not axes or set(axes) - set(AXES) or len(set(axes)) != len(axes):
             raise ValueError(f"axes must be a non-empty combination of x, y and z, got {axes!r}")
+
+    @classmethod
+    def runs_until_halted(cls, params) -> bool:
+        """Bounded by `duration` (or by losing the object), except that 0 follows until halted."""
+        return params["duration"] == 0.0
 
     def start(self):
         """Steps run before following (e.g. a force reference); generator, may yield."""
@@ -54,10 +59,11 @@ class TrackingSkill(ProgramSkill):
                 arm.stop()
                 return self.fail(f"lost the object after {self.now() - t0:.1f} s: it left the fingers "
                                  "(follow faster: raise the speed gain)")
-            if arm.fault():
-                return self.fail(f"arm fault: {arm.fault()}")
+            fault = self.arm_fault()
+            if fault:
+                return self.fail(f"arm fault: {fault}")
             v_tool = self.velocity(left, right) * mask
-            arm.speed_linear(np.r_[rotation(arm.pose()) @ v_tool, 0.0, 0.0, 0.0])
+            arm.speed_linear(np.r_[rotation(self.pose()) @ v_tool, 0.0, 0.0, 0.0])
             self.feedback_message = f"following at {np.round(v_tool * 1000, 1).tolist()} mm/s (tool)"
             yield
         arm.stop()

@@ -8,9 +8,9 @@ import numpy as np
 
 from behaviours.base import Param
 from behaviours.control import MovingAverage, speed_ctrl, speed_ctrl_gain
+from behaviours.follow_me import TrackingSkill
 from behaviours.hand import hand_force
 from behaviours.registry import register
-from behaviours.follow_me import TrackingSkill
 
 
 @register

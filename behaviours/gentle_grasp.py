@@ -6,7 +6,7 @@ from __future__ import annotations
 from py_trees.common import Status
 
 from behaviours import keys
-from behaviours.base import Param, ProgramSkill
+from behaviours.base import Param, ProgramSkill, time_limit
 from behaviours.control import ForceChangeDetector
 from behaviours.registry import register
 from perception.wrench import marker_forces
@@ -23,35 +23,36 @@ class GentleGrasp(ProgramSkill):
         "squeeze": Param("float", "extra closing after contact, for a firm hold", 0.005, "m", min=0.0, max=0.02),
         "force": Param("float", "gripper force limit", 40.0, "N", min=0.0),
         "min_width": Param("float", "width at which closing gives up (nothing grasped)", 0.002, "m", min=0.0),
+        "max_time": time_limit(20.0, "give up when no contact is felt within this time"),
     }
-    READS = (keys.FV_LEFT, keys.FV_RIGHT)
+    READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.GRIPPER_WIDTH, keys.GRIPPER_FAULT, keys.GRIPPER_MOVING)
     WRITES = (keys.GRASP_WIDTH,)
 
     def program(self):
         gripper = self.cell.gripper
         detector = ForceChangeDetector(self.p.threshold, self.p.min_markers)
-        speed = self.p.step / self.cell.clock.period
+        speed, start = self.p.step / self.cell.clock.period, self.now()
         while True:
             left, right = self.tactile()
             if detector.update(marker_forces(left.markers, "left"), marker_forces(right.markers, "right")):
                 break
-            width = gripper.width()
+            width = self.gripper_width()
             if width <= self.p.min_width:
                 return self.fail(f"closed to {width * 1000:.1f} mm without feeling an object")
-            if gripper.fault():
-                return self.fail(f"gripper fault: {gripper.fault()}")
+            fault = self.gripper_fault()
+            if fault:
+                return self.fail(f"gripper fault: {fault}")
+            if self.now() - start > self.p.max_time:
+                gripper.stop()
+                return self.fail(f"no contact felt within {self.p.max_time:.0f} s; the fingers stand at "
+                                 f"{width * 1000:.1f} mm: are they blocked, or is FingerVision blind?")
             gripper.move(width - self.p.step, speed, self.p.force)
             self.feedback_message = f"closing, {detector.changed} markers changed"
             yield
-        contact = gripper.width()
-        gripper.move(contact - self.p.squeeze, speed, self.p.force)
-        while gripper.is_moving():
-            yield
+        contact = self.gripper_width()
+        fault = yield from self.grip(contact - self.p.squeeze, speed, self.p.force)
+        if fault:
+            return self.fail(fault)
         self.write(keys.GRASP_WIDTH, contact)
         self.feedback_message = f"contact at {contact * 1000:.1f} mm"
         return Status.SUCCESS
-
-    def terminate(self, new_status: Status) -> None:
-        super().terminate(new_status)
-        if new_status == Status.INVALID and self.cell is not None:
-            self.cell.gripper.stop()

@@ -7,6 +7,9 @@ back; once the fingers stop on the object at the force limit it is grasped, and 
 the person has let go (nothing slips for `settle` ticks).
 give: once the person tugs (force change on enough markers, or slip), L = -1 opens gently;
 done when the fingers are open and the object is gone.
+Each wait on the person is bounded by `wait`: receive gives up when nothing is offered (or the
+fingers have not closed on the object) within `wait`, or the person does not let go within
+`wait` of the grasp; give gives up when the object is not taken within `wait`.
 """
 
 from __future__ import annotations
@@ -14,16 +17,15 @@ from __future__ import annotations
 from py_trees.common import Status
 
 from behaviours import keys
-from behaviours.base import Param
+from behaviours.base import Param, ProgramSkill
 from behaviours.control import ForceChangeDetector, LeakyIntegrator
-from behaviours.gripper_skill import GripperProgramSkill
 from behaviours.hand import object_area, total_slip
 from behaviours.registry import register
 from perception.wrench import marker_forces
 
 
 @register
-class Handover(GripperProgramSkill):
+class Handover(ProgramSkill):
     NAME = "handover"
     SUMMARY = "receive an object from a person, or give one, through the leaky-integrator gripper"
     PARAMS = {
@@ -38,7 +40,7 @@ class Handover(GripperProgramSkill):
         "settle": Param("int", "receive: ticks without slip on the stopped gripper that mean it is ours", 10, min=1),
         "wait": Param("float", "give up when the person has not acted within this time", 15.0, "s", min=0.0),
     }
-    READS = (keys.FV_LEFT, keys.FV_RIGHT)
+    READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.GRIPPER_WIDTH, keys.GRIPPER_OBJECT)
 
     def _pressed(self, detector: ForceChangeDetector) -> bool:
         left, right = self.tactile()
@@ -53,26 +55,33 @@ class Handover(GripperProgramSkill):
 
     def receive(self, detector: ForceChangeDetector, drive: LeakyIntegrator, start: float):
         gripper = self.cell.gripper
-        open_width, grasped, still = gripper.width(), False, 0
+        open_width, grasped_at, still = self.gripper_width(), None, 0
         while still < self.p.settle:
             pressed = self._pressed(detector)
             slipping = total_slip(*self.tactile()) > self.p.slip
-            grasped = grasped or gripper.object_detected()
-            if grasped:  # the fingers stopped on it at the force limit: wait for the person to let go
+            if grasped_at is None and self.gripper_object():
+                grasped_at = self.now()
+            if grasped_at is not None:  # the fingers stopped on it at the force limit: wait for the person to let go
                 if object_area(*self.tactile()) <= 0.0:
                     return self.fail("the object slipped out after the grasp: raise 'force'")
+                if self.now() - grasped_at > self.p.wait:
+                    return self.fail(f"grasped, but the person did not let go within {self.p.wait:.0f} s")
                 still = 0 if slipping else still + 1
-                self.feedback_message = f"grasped at {gripper.width() * 1000:.1f} mm, waiting for the person to let go"
+                self.feedback_message = f"grasped at {self.gripper_width() * 1000:.1f} mm, waiting for the person to let go"
             else:
                 closing = -drive.step(1.0 if pressed and slipping else 0.0)  # 0 open .. 1 closed
                 gripper.move(open_width * (1.0 - closing), speed=gripper.max_speed, force=self.p.force)
-                if closing < 0.01 and self.now() - start > self.p.wait:
-                    return self.fail(f"no object offered within {self.p.wait:.0f} s (nothing pressed "
-                                     "and moved between the fingers)")
+                if self.now() - start > self.p.wait:
+                    if closing < 0.01:
+                        return self.fail(f"no object offered within {self.p.wait:.0f} s (nothing pressed "
+                                         "and moved between the fingers)")
+                    gripper.stop()
+                    return self.fail(f"the fingers did not close on the object within {self.p.wait:.0f} s "
+                                     f"({closing * 100:.0f} % closed): is it too narrow for 'force'?")
                 self.feedback_message = (f"{'closing' if pressed and slipping else 'waiting'}: "
                                          f"{closing * 100:.0f} % closed, {detector.changed} markers pressed")
             yield
-        self.feedback_message = f"received, holding at {gripper.width() * 1000:.1f} mm"
+        self.feedback_message = f"received, holding at {self.gripper_width() * 1000:.1f} mm"
         return Status.SUCCESS
 
     def give(self, detector: ForceChangeDetector, drive: LeakyIntegrator, start: float):
@@ -84,9 +93,9 @@ class Handover(GripperProgramSkill):
                 return self.fail(f"no one took the object within {self.p.wait:.0f} s; still holding it")
             self.feedback_message = f"waiting for the person to take it ({detector.changed} markers changed)"
             yield
-        hold_width = gripper.width()
+        hold_width = self.gripper_width()
         target = min(hold_width + self.p.opening, gripper.max_width)
-        while gripper.width() < target - 1e-4 or object_area(*self.tactile()) > 0.0:
+        while self.gripper_width() < target - 1e-4 or object_area(*self.tactile()) > 0.0:
             opened = drive.step(-1.0)  # 0 -> 1 with inertia
             gripper.move(hold_width + opened * (target - hold_width), speed=gripper.max_speed)
             if self.now() - start > self.p.wait:

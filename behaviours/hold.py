@@ -1,19 +1,18 @@
 """Hold: keep a grasped object from slipping out by closing the gripper one step whenever the
-slip summed over both fingers exceeds a threshold (the original fv.hold rule)."""
+slip summed over both fingers exceeds a threshold (the FingerVision Hold rule)."""
 
 from __future__ import annotations
 
 from py_trees.common import Status
 
 from behaviours import keys
-from behaviours.base import Param
-from behaviours.gripper_skill import GripperProgramSkill
+from behaviours.base import Param, ProgramSkill
 from behaviours.hand import object_area, total_slip
 from behaviours.registry import register
 
 
 @register
-class Hold(GripperProgramSkill):
+class Hold(ProgramSkill):
     NAME = "hold"
     SUMMARY = "keep a grasped object: close one step whenever slip exceeds a threshold"
     PARAMS = {
@@ -23,7 +22,12 @@ class Hold(GripperProgramSkill):
         "duration": Param("float", "hold this long, then succeed; 0 holds until halted", 5.0, "s", min=0.0),
         "min_width": Param("float", "width at which tightening gives up", 0.002, "m", min=0.0),
     }
-    READS = (keys.FV_LEFT, keys.FV_RIGHT)
+    READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.GRIPPER_WIDTH)
+
+    @classmethod
+    def runs_until_halted(cls, params) -> bool:
+        """Bounded by `duration` (or by losing the object), except that 0 holds until halted."""
+        return params["duration"] == 0.0
 
     def program(self):
         gripper = self.cell.gripper
@@ -37,9 +41,9 @@ class Hold(GripperProgramSkill):
                                  "raise 'force', or lower 'slip' to react sooner")
             slip = total_slip(left, right)
             if slip > self.p.slip:
-                width = gripper.width() - self.p.step
+                width = self.gripper_width() - self.p.step
                 if width < self.p.min_width:
-                    return self.fail(f"closed to {gripper.width() * 1000:.1f} mm and the object still slips")
+                    return self.fail(f"closed to {self.gripper_width() * 1000:.1f} mm and the object still slips")
                 gripper.move(width, self.p.step / self.cell.clock.period, self.p.force)
                 steps += 1
             self.feedback_message = f"holding, slip {slip:.3f}, {steps} tightening steps"

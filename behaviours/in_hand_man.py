@@ -9,14 +9,13 @@ import math
 from py_trees.common import Status
 
 from behaviours import keys
-from behaviours.base import Param
-from behaviours.gripper_skill import GripperProgramSkill
+from behaviours.base import Param, ProgramSkill, time_limit
 from behaviours.hand import object_angle, total_slip
 from behaviours.registry import register
 
 
 @register
-class InHandMan(GripperProgramSkill):
+class InHandMan(ProgramSkill):
     NAME = "in_hand_man"
     SUMMARY = "pivot the held object in the fingers by stepping open until it slips (original rule)"
     PARAMS = {
@@ -25,8 +24,9 @@ class InHandMan(GripperProgramSkill):
         "slip": Param("float", "slip (both fingers) that means the object turns", 0.05, min=0.0),
         "opening": Param("float", "largest opening beyond the starting width", 0.01, "m", min=0.0005, max=0.05),
         "force": Param("float", "gripper force limit", 40.0, "N", min=0.0),
+        "max_time": time_limit(20.0),
     }
-    READS = (keys.FV_LEFT, keys.FV_RIGHT)
+    READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.GRIPPER_WIDTH)
     WRITES = (keys.OBJECT_ANGLE,)
 
     def program(self):
@@ -34,7 +34,7 @@ class InHandMan(GripperProgramSkill):
         theta0 = object_angle(*self.tactile())
         if theta0 is None:
             return self.fail("no object seen between the fingers to pivot")
-        width0, turned = gripper.width(), 0.0
+        width0, turned, start = self.gripper_width(), 0.0, self.now()
         speed = self.p.step / self.cell.clock.period
         while turned <= self.p.target:
             left, right = self.tactile()
@@ -43,14 +43,18 @@ class InHandMan(GripperProgramSkill):
                 return self.fail(f"the object fell out after turning {turned:.0f} deg: use a smaller 'step'")
             turned = math.degrees(abs(theta - theta0))
             slipping = total_slip(left, right) >= self.p.slip
-            width = gripper.width() + (-self.p.step if slipping else self.p.step)
+            width = self.gripper_width() + (-self.p.step if slipping else self.p.step)
             if width > width0 + self.p.opening:
                 return self.fail(f"opened {self.p.opening * 1000:.1f} mm and the object did not turn: "
                                  "it balances in the grasp, or allow a larger 'opening'")
+            if self.now() - start > self.p.max_time:
+                gripper.stop()
+                return self.fail(f"turned only {turned:.0f} of {self.p.target:.0f} deg in "
+                                 f"{self.p.max_time:.0f} s: it slips without turning: raise 'slip', or 'max_time'")
             gripper.move(width, speed, self.p.force)
             self.feedback_message = f"turned {turned:.1f} deg, {'closing' if slipping else 'opening'}"
             yield
-        gripper.move(gripper.width() - self.p.step, speed, self.p.force)
+        gripper.move(self.gripper_width() - self.p.step, speed, self.p.force)
         yield
         self.write(keys.OBJECT_ANGLE, turned)
         self.feedback_message = f"turned {turned:.1f} deg"

@@ -14,15 +14,14 @@ import math
 from py_trees.common import Status
 
 from behaviours import keys
-from behaviours.base import Param
+from behaviours.base import Param, ProgramSkill, time_limit
 from behaviours.control import LeakyIntegrator
-from behaviours.gripper_skill import GripperProgramSkill
 from behaviours.hand import hand_torque, object_angle, total_slip
 from behaviours.registry import register
 
 
 @register
-class InHandRot(GripperProgramSkill):
+class InHandRot(ProgramSkill):
     NAME = "in_hand_rot"
     SUMMARY = "let the held object turn under its own weight (leaky-integrator opening) to a target angle"
     PARAMS = {
@@ -33,10 +32,10 @@ class InHandRot(GripperProgramSkill):
         "torque_eps": Param("float", "torque variant: torque that counts as zero", 0.01, "px", min=0.0),
         "slip": Param("float", "slip variant: slip (both fingers) that counts as turning", 0.05, min=0.0),
         "settle": Param("int", "torque variant: ticks of zero torque that end the rotation", 10, min=1),
-        "max_time": Param("float", "give up after this long", 20.0, "s", min=0.1),
+        "max_time": time_limit(20.0),
         "force": Param("float", "gripper force when closing again", 40.0, "N", min=0.0),
     }
-    READS = (keys.FV_LEFT, keys.FV_RIGHT)
+    READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.GRIPPER_WIDTH, keys.GRIPPER_FAULT, keys.GRIPPER_MOVING)
     WRITES = (keys.OBJECT_ANGLE,)
 
     def program(self):
@@ -44,7 +43,7 @@ class InHandRot(GripperProgramSkill):
         theta0 = object_angle(*self.tactile())
         if theta0 is None:
             return self.fail("no object seen between the fingers to rotate")
-        width0, start = gripper.width(), self.now()
+        width0, start = self.gripper_width(), self.now()
         drive, quiet, turned = LeakyIntegrator(self.p.alpha), 0, 0.0
         while turned < self.p.target:
             left, right = self.tactile()
@@ -57,7 +56,7 @@ class InHandRot(GripperProgramSkill):
                 twisting = abs(hand_torque(left, right)) > self.p.torque_eps
                 quiet = 0 if twisting else quiet + 1
                 if quiet >= self.p.settle:
-                    yield from self._close(width0)
+                    yield from self.grip(width0, gripper.max_speed, self.p.force)
                     return self.fail(f"the torque vanished at {turned:.0f} deg, short of the target "
                                      f"{self.p.target:.0f} deg: too light for torque sensing, use variant: slip")
                 drive_input = 1.0 if twisting else 0.0
@@ -66,20 +65,18 @@ class InHandRot(GripperProgramSkill):
             opened = drive.step(-drive_input)  # 0 closed .. 1 fully opened, with inertia
             gripper.move(width0 + opened * self.p.opening, speed=gripper.max_speed)
             if self.now() - start > self.p.max_time:
-                yield from self._close(width0)
+                yield from self.grip(width0, gripper.max_speed, self.p.force)
                 return self.fail(f"turned only {turned:.0f} of {self.p.target:.0f} deg in "
                                  f"{self.p.max_time:.0f} s: allow a larger 'opening'")
             self.feedback_message = f"turned {turned:.1f} deg, {opened * 100:.0f} % open"
             yield
-        yield from self._close(width0)
-        turned = math.degrees(abs(object_angle(*self.tactile()) - theta0))
+        fault = yield from self.grip(width0, gripper.max_speed, self.p.force)  # stop the turn
+        if fault:
+            return self.fail(fault)
+        theta = object_angle(*self.tactile())
+        if theta is None:
+            return self.fail(f"the object fell out while the fingers closed again at {turned:.0f} deg")
+        turned = math.degrees(abs(theta - theta0))
         self.write(keys.OBJECT_ANGLE, turned)
         self.feedback_message = f"turned {turned:.1f} deg"
         return Status.SUCCESS
-
-    def _close(self, width: float):
-        """Grip again at the starting width to stop the object turning."""
-        gripper = self.cell.gripper
-        gripper.move(width, speed=gripper.max_speed, force=self.p.force)
-        while gripper.is_moving():
-            yield

@@ -1,6 +1,6 @@
 """Peak of a noisy load profile from a continuous scan: smooth, take the best sample, then fit
-a local quadratic around it (robust under noise where golden-section search is not; see
-shared/reference/physics.md section 4)."""
+a local quadratic around it (robust under noise, where a golden-section search over single noisy
+samples is not)."""
 
 from __future__ import annotations
 

@@ -24,7 +24,8 @@ class LocateElement(ProgramSkill):
         "tolerance": Param("float", "accepted left/right area imbalance (share of their sum)", 0.05, min=0.0, max=1.0),
         "max_ticks": Param("int", "ticks allowed for centring", 200, min=1),
     }
-    READS = (keys.ELEMENT, keys.FV_LEFT, keys.FV_RIGHT)
+    READS = (keys.ELEMENT, keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT, keys.ROBOT_MOVING,
+             keys.GRIPPER_FAULT, keys.GRIPPER_MOVING)
     WRITES = (keys.ELEMENT_POSE,)
 
     def program(self):
@@ -40,21 +41,25 @@ class LocateElement(ProgramSkill):
             fault = yield from self.move(target, self.p.speed)
             if fault:
                 return self.fail(fault)
-        while gripper.is_moving():
+        while self.gripper_moving():  # opened while the arm moved: normally done by now
+            fault = self.gripper_fault()
+            if fault:
+                return self.fail(f"gripper fault: {fault}")
             yield
         arm = self.cell.arm
-        across = rotation(arm.pose())[:, 1]  # the fingers close along tool y
+        across = rotation(self.pose())[:, 1]  # the fingers close along tool y
         for _ in range(self.p.max_ticks):
             left, right = self.tactile()
+            pose = self.pose()
             if not (left.obj.present and right.obj.present):
                 arm.stop()
                 return self.fail(f"element {element['id']} not seen between the fingers at "
-                                 f"{np.round(arm.pose()[:3], 3).tolist()}")
+                                 f"{np.round(pose[:3], 3).tolist()}")
             total = left.obj.area + right.obj.area
             imbalance = (right.obj.area - left.obj.area) / total
             if abs(imbalance) <= self.p.tolerance:
                 arm.stop()
-                self.write(keys.ELEMENT_POSE, arm.pose())
+                self.write(keys.ELEMENT_POSE, pose)
                 self.feedback_message = f"centred on {element['id']}"
                 return Status.SUCCESS
             # A speed command of one gain step per tick (a move per tick would start from rest

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 from py_trees.common import Status
 
+from behaviours import keys
 from behaviours.base import Param, ProgramSkill
 from behaviours.geometry import translated
 from behaviours.registry import register
@@ -19,6 +20,7 @@ class MoveTo(ProgramSkill):
         "offset": Param("vector", "base-frame offset from the current pose", None, "m", length=3),
         "speed": Param("float", "TCP speed", 0.1, "m/s", min=0.001, max=1.0),
     }
+    READS = (keys.ROBOT_POSE, keys.ROBOT_FAULT, keys.ROBOT_MOVING)
 
     @classmethod
     def validate(cls, params) -> None:
@@ -26,7 +28,7 @@ class MoveTo(ProgramSkill):
             raise ValueError("give exactly one of 'pose' or 'offset'")
 
     def program(self):
-        start = self.cell.arm.pose()
+        start = self.pose()
         target = np.array(self.p.pose) if self.p.pose is not None else translated(start, self.p.offset)
         self.feedback_message = f"to {np.round(target[:3], 3).tolist()}"
         fault = yield from self.move(target, self.p.speed)

@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 
 from behaviours.base import Param
-from behaviours.registry import register
 from behaviours.follow_me import TrackingSkill
+from behaviours.registry import register
 
 
 @register

@@ -8,7 +8,7 @@ import numpy as np
 from py_trees.common import Status
 
 from behaviours import keys
-from behaviours.base import Param, ProgramSkill
+from behaviours.base import Param, ProgramSkill, time_limit
 from behaviours.control import LeakyIntegrator
 from behaviours.geometry import translated
 from behaviours.registry import register
@@ -24,28 +24,35 @@ class PlaceElement(ProgramSkill):
         "retract": Param("vector", "base-frame retreat after release", [0.0, -0.2, 0.0], "m", length=3),
         "lift": Param("float", "height gained after the retreat", 0.1, "m", min=0.0),
         "speed": Param("float", "retreat speed", 0.1, "m/s", min=0.001),
+        "max_time": time_limit(10.0, "give up when the fingers have not opened within this time"),
     }
-    READS = (keys.ELEMENT, keys.FV_LEFT, keys.FV_RIGHT, keys.MEASURED_LOAD, keys.ELEMENT_LENGTH)
+    READS = (keys.ELEMENT, keys.FV_LEFT, keys.FV_RIGHT, keys.MEASURED_LOAD, keys.ELEMENT_LENGTH,
+             keys.ROBOT_POSE, keys.ROBOT_FAULT, keys.ROBOT_MOVING, keys.GRIPPER_WIDTH, keys.GRIPPER_FAULT)
     WRITES = (keys.ASBUILT,)
 
     def program(self):
         gripper = self.cell.gripper
         element = self.read(keys.ELEMENT)
-        start = gripper.width()
+        start, t0 = self.gripper_width(), self.now()
         target = min(start + self.p.opening, gripper.max_width)
         drive = LeakyIntegrator(self.p.alpha)
         self.feedback_message = "releasing"
-        while gripper.width() < target - 1e-4:
+        while self.gripper_width() < target - 1e-4:
+            if self.now() - t0 > self.p.max_time:
+                gripper.stop()
+                return self.fail(f"the fingers opened to {self.gripper_width() * 1000:.1f} mm of "
+                                 f"{target * 1000:.1f} mm within {self.p.max_time:.0f} s")
             x = drive.step(-1.0)  # 0 -> 1 with inertia
             gripper.move(start + x * (target - start), speed=0.05)
             yield
-            if gripper.fault():
-                return self.fail(f"gripper fault: {gripper.fault()}")
+            fault = self.gripper_fault()
+            if fault:
+                return self.fail(f"gripper fault: {fault}")
         left, right = self.tactile()
         if not (left.obj.present or right.obj.present):
             return self.fail(f"element {element['id']} not seen between the fingers after release: "
                              "it fell")
-        pose = self.cell.arm.pose()
+        pose = self.pose()
         length = self.read(keys.ELEMENT_LENGTH, element["size"][0])
         asbuilt = np.array([pose[0], pose[1], length / 2.0, 0.0, -np.pi / 2, 0.0])  # upright
         self.write(keys.ASBUILT, {"element": element["id"], "pose": asbuilt,

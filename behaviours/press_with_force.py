@@ -10,7 +10,7 @@ import numpy as np
 from py_trees.common import Status
 
 from behaviours import keys
-from behaviours.base import Param, ProgramSkill
+from behaviours.base import Param, ProgramSkill, time_limit
 from behaviours.control import MovingAverage
 from behaviours.geometry import rotation
 from behaviours.model_files import UsesModel
@@ -34,8 +34,9 @@ class PressWithForce(UsesModel, ProgramSkill):
         "max_travel": Param("float", "give up after pressing this far", 0.1, "m", min=0.0),
         "max_force": Param("float", "abort above this force", 20.0, "N", min=0.0),
         "smoothing": Param("int", "ticks in the moving average of the predicted force", 3, min=1),
+        "max_time": time_limit(30.0, "give up when the force has not settled within this time"),
     }
-    READS = (keys.FV_LEFT, keys.FV_RIGHT)
+    READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT)
     WRITES = (keys.PRESS_FORCE,)
 
     def program(self):
@@ -43,11 +44,12 @@ class PressWithForce(UsesModel, ProgramSkill):
             return self.fail(self.model_error)
         model = self.model
         arm = self.cell.arm
-        start, steady, average = arm.pose(), 0, MovingAverage(self.p.smoothing)
+        start, t0, steady, average = self.pose(), self.now(), 0, MovingAverage(self.p.smoothing)
         while steady < self.p.settle:
             force = float(average.update(predict_force(model, tick_features(*self.tactile()))))
             error = self.p.target - force
-            travelled = float(np.linalg.norm(arm.pose()[:3] - start[:3]))
+            pose = self.pose()
+            travelled = float(np.linalg.norm(pose[:3] - start[:3]))
             if force > self.p.max_force:
                 arm.stop()
                 return self.fail(f"pressing with {force:.1f} N, above max_force {self.p.max_force} N: "
@@ -56,11 +58,17 @@ class PressWithForce(UsesModel, ProgramSkill):
                 arm.stop()
                 return self.fail(f"pressed {travelled * 1000:.0f} mm and feel only {force:.2f} N: "
                                  "nothing under the object, or the model does not fit this object")
-            if arm.fault():
-                return self.fail(f"arm fault: {arm.fault()}")
+            if self.now() - t0 > self.p.max_time:
+                arm.stop()
+                return self.fail(f"the force did not settle within {self.p.tolerance} N of the target in "
+                                 f"{self.p.max_time:.0f} s (now {force:.2f} N): lower the gain, or "
+                                 "raise 'smoothing' against a noisy prediction")
+            fault = self.arm_fault()
+            if fault:
+                return self.fail(f"arm fault: {fault}")
             steady = steady + 1 if abs(error) <= self.p.tolerance else 0
             speed = float(np.clip(self.p.gain * error, -self.p.max_speed, self.p.max_speed))
-            arm.speed_linear(np.r_[rotation(arm.pose())[:, 2] * speed, 0.0, 0.0, 0.0])
+            arm.speed_linear(np.r_[rotation(pose)[:, 2] * speed, 0.0, 0.0, 0.0])
             self.feedback_message = f"pressing with {force:.2f} N of {self.p.target:.2f} N"
             yield
         arm.stop()

@@ -21,26 +21,25 @@ class RotateElement(ProgramSkill):
         "max_slip": Param("float", "slip that aborts the rotation", 0.05, min=0.0),
         "ground_clearance": Param("float", "least height of the element's swept end above the ground", 0.01, "m", min=0.0),
     }
-    READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.ELEMENT_LENGTH)
-    WRITES = ()
+    READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.ELEMENT_LENGTH, keys.ROBOT_POSE, keys.ROBOT_FAULT,
+             keys.ROBOT_MOVING)
 
     def program(self):
-        arm = self.cell.arm
-        start = arm.pose()
+        start = self.pose()
         length = self.read(keys.ELEMENT_LENGTH)
         if length is not None and start[2] - length / 2.0 < self.p.ground_clearance:
             return self.fail(f"lift first: a {length:.3f} m element turned at z = {start[2]:.3f} m "
                              f"would hit the ground (needs z >= {length / 2 + self.p.ground_clearance:.3f} m)")
         target = rotated_about_tool(start, 1, np.radians(self.p.angle))
-        arm.move_linear(target, 0.1)
-        while arm.is_moving():
-            yield
-            left, right = self.tactile()
-            slip = max(left.slip, right.slip)
-            if slip > self.p.max_slip:
-                arm.stop()
-                return self.fail(f"element slipping in the grasp (slip {slip:.2f} > {self.p.max_slip})")
-            if arm.fault():
-                return self.fail(f"arm fault: {arm.fault()}")
+        fault = yield from self.move(target, 0.1, watch=self._slipping)
+        if fault:
+            return self.fail(fault)
         self.feedback_message = f"rotated {self.p.angle:.0f} deg"
         return Status.SUCCESS
+
+    def _slipping(self) -> str | None:
+        left, right = self.tactile()
+        slip = max(left.slip, right.slip)
+        if slip > self.p.max_slip:
+            return f"element slipping in the grasp (slip {slip:.2f} > {self.p.max_slip})"
+        return None

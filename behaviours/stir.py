@@ -63,12 +63,12 @@ def stir_steps(skill: ProgramSkill, movement: str, duration: float, trial: int):
     The command is the path's own velocity plus a share of the position error: correcting the
     whole error every tick would oscillate on a real controller, whose pose lags the command."""
     arm, dt = skill.cell.arm, skill.cell.clock.period
-    start, path, rows = arm.pose(), MOVEMENTS[movement], []
+    start, path, rows = skill.pose(), MOVEMENTS[movement], []
     skill.write(keys.STIR_TRIAL, {"trial": trial, "movement": movement, "active": True})
     t = 0.0
     while t < duration:
         rows.append(tick_features(*skill.tactile()))
-        error = start[:2] + path(t) - arm.pose()[:2]
+        error = start[:2] + path(t) - skill.pose()[:2]
         velocity = (path(t + dt) - path(t)) / dt + CORRECTION * error / dt
         arm.speed_linear(np.r_[velocity, 0.0, 0.0, 0.0, 0.0])
         skill.feedback_message = f"stirring ({movement}), {t:.1f} of {duration:.1f} s"
@@ -88,7 +88,7 @@ class Stir(ProgramSkill):
                           CYCLE, choices=(CYCLE, *MOVEMENTS)),
         "duration": Param("float", "how long to stir", 4.0, "s", min=0.5, max=60.0),
     }
-    READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.STIR_TRIAL)
+    READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.STIR_TRIAL, keys.ROBOT_POSE, keys.ROBOT_FAULT, keys.ROBOT_MOVING)
     WRITES = (keys.STIR_TRIAL,)
 
     def program(self):

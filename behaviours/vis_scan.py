@@ -23,7 +23,7 @@ class VisScan(ProgramSkill):
         "length_tolerance": Param("float", "allowed difference from the design length", 0.02, "m", min=0.0),
         "speed": Param("float", "speed of the final move to the middle", 0.1, "m/s", min=0.001),
     }
-    READS = (keys.ELEMENT, keys.FV_LEFT, keys.FV_RIGHT)
+    READS = (keys.ELEMENT, keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT, keys.ROBOT_MOVING)
     WRITES = (keys.ELEMENT_LENGTH, keys.ELEMENT_POSE)
 
     def _area(self) -> float:
@@ -37,14 +37,15 @@ class VisScan(ProgramSkill):
         A speed command, not a move per tick: a real controller starts every move from rest, so
         a move of one step per tick would crawl at a fraction of the scan speed."""
         arm = self.cell.arm
-        start = arm.pose()[:3]
+        start = self.pose()[:3]
         prev_pos, prev_area = start.copy(), self._area()
         arm.speed_linear(np.r_[direction * (self.p.step / self.cell.clock.period), 0.0, 0.0, 0.0])
-        while float(np.linalg.norm(arm.pose()[:3] - start)) < self.p.max_travel:
+        pos = start
+        while float(np.linalg.norm(pos - start)) < self.p.max_travel:
             yield
-            if arm.fault():
+            if self.arm_fault():
                 return None
-            pos, area = arm.pose()[:3], self._area()
+            pos, area = self.pose()[:3], self._area()
             if area < threshold <= prev_area:
                 w = (prev_area - threshold) / max(prev_area - area, 1e-12)
                 arm.stop()
@@ -59,13 +60,14 @@ class VisScan(ProgramSkill):
         if full <= 0.0:
             return self.fail("no object in view: locate the element first")
         threshold = self.p.edge_fraction * full
-        axis = rotation(self.cell.arm.pose())[:, 0]
+        axis = rotation(self.pose())[:, 0]
         edges = []
         for sign in (1.0, -1.0):
             self.feedback_message = f"scanning {'forward' if sign > 0 else 'back'}"
             edge = yield from self._find_edge(sign * axis, threshold)
-            if self.cell.arm.fault():
-                return self.fail(f"arm fault: {self.cell.arm.fault()}")
+            fault = self.arm_fault()
+            if fault:
+                return self.fail(f"arm fault: {fault}")
             if edge is None:
                 return self.fail(f"no element end within {self.p.max_travel} m scanning "
                                  f"{'forward' if sign > 0 else 'back'}")
@@ -75,7 +77,7 @@ class VisScan(ProgramSkill):
         if design is not None and abs(length - design) > self.p.length_tolerance:
             return self.fail(f"measured length {length:.4f} m differs from the design "
                              f"{design:.4f} m by more than {self.p.length_tolerance} m")
-        middle = self.cell.arm.pose()
+        middle = self.pose()
         middle[:3] = (edges[0] + edges[1]) / 2.0
         fault = yield from self.move(middle, self.p.speed)
         if fault:

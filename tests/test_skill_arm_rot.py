@@ -46,6 +46,13 @@ def test_arm_rot_gives_up_when_the_torque_never_goes():
     assert "still" in h.feedback("s") and not h.arm.is_moving()
 
 
+def test_arm_rot_gives_up_on_a_torque_that_keeps_changing_sign():
+    h = one_skill("{max_time: 2.0}")
+    h.script(lambda tick, t: twisted(0.2 if tick % 2 else -0.2))  # rocks, never settles
+    assert h.run_until_done(200).name == "FAILURE"
+    assert "did not settle" in h.feedback("s") and not h.arm.is_moving()
+
+
 def test_arm_rot_needs_a_held_object():
     h = one_skill()
     assert h.run_until_done(5).name == "FAILURE" and "nothing held" in h.feedback("s")

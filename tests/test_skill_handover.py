@@ -47,6 +47,13 @@ def test_receive_reopens_when_the_person_pulls_back():
     assert h.status("s") == "RUNNING"
 
 
+def test_receive_gives_up_when_the_person_never_lets_go():
+    h = one_skill("{mode: receive, wait: 2.0}", object_width=0.05)
+    h.script(lambda tick, t: EMPTY if tick < 5 else offered())  # still dragging it once grasped
+    assert h.run_until_done(200).name == "FAILURE"
+    assert "did not let go within 2 s" in h.feedback("s") and h.gripper.object_detected()
+
+
 def test_receive_fails_when_nothing_is_offered():
     h = one_skill("{mode: receive, wait: 2.0}")
     assert h.run_until_done(200).name == "FAILURE"

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from assembly.design import DesignModel
-from assembly.testing import TreeHarness, touch
+from assembly.testing import TreeHarness, mock_cell, touch
 from behaviours.geometry import angle_between
 from drivers.cell_builders import load_cell
 
@@ -57,6 +57,12 @@ def test_gentle_grasp_fails_when_nothing_is_felt():
     assert h.run_until_done(200).name == "FAILURE"
     assert "without feeling an object" in h.feedback("s")
     assert h.gripper.width() <= 0.002
+
+
+def test_gentle_grasp_gives_up_when_the_fingers_stop_without_feeling_anything():
+    h = one_skill("gentle_grasp", "{max_time: 2.0}", cell=mock_cell(object_width=0.04))
+    assert h.run_until_done(200).name == "FAILURE"  # blocked on the object, FingerVision blind
+    assert "no contact felt within 2 s" in h.feedback("s") and not h.gripper.is_moving()
 
 
 def test_gentle_grasp_halted_stops_the_gripper():
