@@ -5,11 +5,15 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import logging
 import sys
 from pathlib import Path
+from typing import Callable
+
+from perception.errors import FvtreeError, FvtreeErrors
 
 EXIT_FAILURE = 1  # the tree ran and failed, or a check failed
-EXIT_USAGE = 2  # bad input: tree, design or cell file
+EXIT_USAGE = FvtreeError.exit_code  # bad input: a tree, design, cell or data file, or an argument
 
 BENCHES = {
     "ticks": "assembly.bench.ticks",
@@ -25,17 +29,21 @@ def _load(path: str):
     return load_tree(path)
 
 
-def cmd_validate(args) -> int:
-    from assembly.errors import TreeErrors
+def report(exc: FvtreeError) -> int:
+    """Print a located error (each of them, for a list) on stderr; returns its exit code."""
+    for err in exc.errors if isinstance(exc, FvtreeErrors) else [exc]:
+        print(err, file=sys.stderr)
+    return exc.exit_code
 
+
+def cmd_validate(args) -> int:
     bad = 0
     for path in args.trees:
         try:
             doc = _load(path)
-        except TreeErrors as exc:
+        except FvtreeError as exc:
             bad += 1
-            for err in exc.errors:
-                print(err, file=sys.stderr)
+            report(exc)
             continue
         print(f"{path}: ok ({doc.name}, {sum(1 for _ in _walk(doc.root))} nodes)")
     return EXIT_USAGE if bad else 0
@@ -105,6 +113,49 @@ def cmd_check(args) -> int:
     return 0 if all(ok for _, ok, _ in results) else EXIT_FAILURE
 
 
+def cmd_record(args) -> int:
+    from assembly.recording import record
+
+    print(f"wrote {record(args.tree, args.out, cell=args.cell, seed=args.seed, runs=args.runs)}")
+    return 0
+
+
+def cmd_train(args) -> int:
+    from perception.learning.train import run
+
+    for path in run(args.kind, args.data, args.out, seed=args.seed):
+        print(f"wrote {path}")
+    return 0
+
+
+def _number(convert: Callable[[str], float], minimum: float, strict: bool) -> Callable[[str], float]:
+    """argparse type: a number of at least `minimum` (above it when `strict`)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = convert(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {convert.__name__}, got {text!r}") from None
+        if value < minimum or (strict and value == minimum):
+            raise argparse.ArgumentTypeError(f"must be {'>' if strict else '>='} {minimum}, got {text}")
+        return value
+
+    return parse
+
+
+def _existing_file(text: str) -> str:
+    """argparse type: a path to a file that exists."""
+    if not Path(text).is_file():
+        raise argparse.ArgumentTypeError(f"no such file: {text}")
+    return text
+
+
+SEED = _number(int, 0, strict=False)
+POSITIVE_INT = _number(int, 1, strict=False)
+POSITIVE = _number(float, 0, strict=True)
+NON_NEGATIVE = _number(float, 0, strict=False)
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="fvtree", description=__doc__)
     p.add_argument("--debug", action="store_true", help="show tracebacks and debug logs")
@@ -113,7 +164,7 @@ def parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="run a tree on a cell (the simulated one by default)")
     r.add_argument("tree")
     r.add_argument("--cell", default="sim", help="cell file or packaged cell name (default: sim)")
-    r.add_argument("--seed", type=int, default=0, help="seed of the simulated world's noise")
+    r.add_argument("--seed", type=SEED, default=0, help="seed of the simulated world's noise")
     r.add_argument("--speed", choices=("realtime", "max"), default="max",
                    help="simulated time: as fast as possible (max) or paced to the wall clock")
     r.add_argument("--perception", choices=("signals", "pixels"), default=None,
@@ -121,9 +172,9 @@ def parser() -> argparse.ArgumentParser:
     r.add_argument("--runs-dir", default="runs", help="where run directories go (default: runs)")
     r.add_argument("--resume", nargs="?", const="latest", default=None, metavar="RUN_DIR",
                    help="continue a run, skipping elements already placed (default: the latest run)")
-    r.add_argument("--estop-at", type=float, default=None, metavar="SECONDS",
+    r.add_argument("--estop-at", type=NON_NEGATIVE, default=None, metavar="SECONDS",
                    help="simulate an e-stop at this cell time")
-    r.add_argument("--max-time", type=float, default=3600.0, metavar="SECONDS",
+    r.add_argument("--max-time", type=POSITIVE, default=3600.0, metavar="SECONDS",
                    help="give up after this much cell time")
     r.add_argument("--no-plots", action="store_true", help="skip the PNG charts")
     r.set_defaults(func=cmd_run)
@@ -155,58 +206,37 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--cell", required=True)
     c.set_defaults(func=cmd_check)
 
-    # --- learning workflow (issue 4): fvtree record / fvtree train ---------------------------
-    def cmd_record(args) -> int:
-        from assembly.recording import record
-
-        print(f"wrote {record(args.tree, args.out, cell=args.cell, seed=args.seed, runs=args.runs)}")
-        return 0
-
-    def cmd_train(args) -> int:
-        from perception.learning.train import run
-
-        for path in run(args.kind, args.data, args.out, seed=args.seed):
-            print(f"wrote {path}")
-        return 0
-
     rec = sub.add_parser("record", help="run a tree and record per-tick tactile features and labels")
     rec.add_argument("tree")
     rec.add_argument("--out", required=True, help="recording file to write (.npz)")
     rec.add_argument("--cell", default="sim", help="cell file or packaged cell name (default: sim)")
-    rec.add_argument("--seed", type=int, default=0, help="seed of the first run")
-    rec.add_argument("--runs", type=int, default=1, help="record this many runs (seeds seed, seed+1, ...)")
+    rec.add_argument("--seed", type=SEED, default=0, help="seed of the first run")
+    rec.add_argument("--runs", type=POSITIVE_INT, default=1,
+                     help="record this many runs (seeds seed, seed+1, ...)")
     rec.set_defaults(func=cmd_record)
 
     tr = sub.add_parser("train", help="train ForceLearn (force) or StirLearn (stir) on a recording")
     tr.add_argument("kind", choices=("force", "stir"))
-    tr.add_argument("data", help="recording made by fvtree record")
+    tr.add_argument("data", type=_existing_file, help="recording made by fvtree record")
     tr.add_argument("--out", required=True, help="model file to write (.joblib)")
-    tr.add_argument("--seed", type=int, default=0)
+    tr.add_argument("--seed", type=SEED, default=0)
     tr.set_defaults(func=cmd_train)
-    # --- end of the learning workflow block -----------------------------------------------------
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
-    import logging
-
     logging.basicConfig(level=logging.DEBUG if args.debug else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
-    from perception.errors import FvtreeError, FvtreeErrors
-
     try:
         return args.func(args)
-    except FvtreeErrors as exc:
-        for err in exc.errors:
-            print(err, file=sys.stderr)
-        return exc.exit_code
     except FvtreeError as exc:
-        print(exc, file=sys.stderr)
-        return exc.exit_code
+        return report(exc)
     except Exception as exc:  # noqa: BLE001 - last resort: one line unless --debug
         if args.debug:
             raise
+        if isinstance(exc, OSError) and exc.filename is not None:  # a path given on the command line
+            return report(FvtreeError(exc.strerror or str(exc), str(exc.filename)))
         print(f"error: {type(exc).__name__}: {exc} (rerun with --debug for the traceback)", file=sys.stderr)
         return EXIT_FAILURE
 

@@ -1,44 +1,29 @@
-"""The YAML tree language: node kinds, their fields, and validation into `NodeSpec`s.
+"""The YAML tree language: what a node kind is, and validation of a tree into `NodeSpec`s.
 
-A node is a mapping whose kind is given by one key (DESIGN.md): `sequence: NAME`,
-`selector: NAME`, `parallel: NAME`, `retry: NAME`, `repeat: NAME`, `timeout: NAME`,
-`inverter: NAME`, `status_map: NAME`, `guard: NAME`, `for_each_element: NAME`,
-`condition: NAME`, `skill: TYPE` and `subtree: REF` (the last two take `name:`, defaulting
-to the type). Validation walks the whole file, expands subtrees (substituting `$param`
-values) and collects every problem with its file, line and node path.
+A node is a mapping whose kind is given by one key (`sequence: NAME`, `skill: TYPE`, ...; the
+kinds are the table in `assembly.node_kinds`). Validation walks the whole file, expands subtrees
+(substituting `$param` values) and collects every problem with its file, line and node path.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass, field, replace
+from typing import Any, Callable, Mapping
+
+from py_trees.behaviour import Behaviour
 
 from assembly.conditions import ALL_OPS, split_key
-from assembly.errors import TreeError, did_you_mean
-from assembly.yaml_source import Located
+from assembly.errors import TreeError
+from assembly.yaml_source import Located, LocatedList
 from behaviours import keys as bbkeys
 from behaviours.base import REQUIRED, Param
 from behaviours.registry import SKILLS
+from perception.errors import did_you_mean
 
-KINDS: dict[str, dict[str, set[str]]] = {
-    "sequence": {"required": {"memory", "children"}, "optional": set()},
-    "selector": {"required": {"memory", "children"}, "optional": set()},
-    "parallel": {"required": {"policy", "children"}, "optional": {"synchronise", "selected"}},
-    "retry": {"required": {"attempts", "child"}, "optional": set()},
-    "repeat": {"required": {"times", "child"}, "optional": set()},
-    "timeout": {"required": {"seconds", "child"}, "optional": set()},
-    "inverter": {"required": {"child"}, "optional": set()},
-    "status_map": {"required": {"map", "child"}, "optional": set()},
-    "guard": {"required": {"while", "child"}, "optional": set()},
-    "for_each_element": {"required": {"child"}, "optional": {"elements"}},
-    "condition": {"required": {"key", "op"}, "optional": {"value"}},
-    "skill": {"required": set(), "optional": {"name", "params"}},
-    "subtree": {"required": set(), "optional": {"name", "params"}},
-}
-COMMON_FIELDS = {"doc"}
-STATUSES = ("success", "failure", "running")
-POLICIES = ("all", "one", "selected")
 PARAM_TYPES = ("float", "int", "bool", "str", "vector")
+PARAM_FIELDS = ("type", "default", "doc", "unit")  # of a subtree param declaration
+NODE_FIELDS = ("child", "children")  # fields holding nodes, validated when the walk reaches them
+COMMON_FIELDS = {"doc": {"type": "string"}}  # fields every node may have -> JSON Schema of the value
 
 
 @dataclass
@@ -57,6 +42,8 @@ class NodeSpec:
 
 @dataclass
 class SubtreeDef:
+    """A subtree as declared: its typed params and its (not yet validated) root node."""
+
     name: str
     params: dict[str, Param]
     root: Located
@@ -64,7 +51,57 @@ class SubtreeDef:
     line: int
 
 
+@dataclass(frozen=True)
+class Scope:
+    """Where a node sits: the `$param` values of the enclosing subtree and the chain of subtrees."""
+
+    params: dict[str, Any] = field(default_factory=dict)
+    subtrees: tuple[str, ...] = ()
+
+    def enter(self, subtree: str, params: dict[str, Any]) -> "Scope":
+        return Scope(params, self.subtrees + (subtree,))
+
+
+@dataclass(frozen=True)
+class NodeKind:
+    """One node kind: `<kind>: VALUE` plus its fields.
+
+    `check(validator, spec, node, scope)` reads the node's fields into `spec.args` (reporting
+    problems through the validator) and validates its children; `build(spec, children)` returns
+    the py_trees behaviour. `value` is what the kind's own key holds: the node's NAME, or a TYPE/REF
+    whose node name then comes from an optional `name:` field (defaulting to it).
+    """
+
+    doc: str
+    fields: Mapping[str, dict]  # field -> JSON Schema of its value
+    required: frozenset[str]
+    check: Callable[["Validator", NodeSpec, Located, Scope], None]
+    build: Callable[[NodeSpec, list[Behaviour]], Behaviour]
+    label: Callable[[NodeSpec], str] = lambda spec: f"[{spec.kind}]"
+    value: str = "NAME"
+    substitutes: frozenset[str] = frozenset()  # fields whose `$param`s `check` fills in itself
+    variants: Callable[[str, "NodeKind"], list[dict]] | None = None  # when fields cannot say the schema
+
+    def __post_init__(self):
+        if not self.required <= set(self.fields):
+            raise ValueError(f"required fields {sorted(self.required - set(self.fields))} are not fields")
+
+    @property
+    def typed(self) -> bool:
+        """Whether the kind's key holds a type (`skill: TYPE`) rather than the node's name."""
+        return self.value != "NAME"
+
+    def json_schema(self, name: str) -> list[dict]:
+        """The JSON Schema variants of a node of this kind (one, unless `variants` says more)."""
+        if self.variants is not None:
+            return self.variants(name, self)
+        properties = {name: {"type": "string"}, **self.fields, **COMMON_FIELDS}
+        return [{"type": "object", "required": [name, *sorted(self.required)], "additionalProperties": False,
+                 "properties": properties, "description": self.doc}]
+
+
 def known_blackboard_keys() -> set[str]:
+    """Every key a condition may read: perception, task keys and what some skill writes."""
     found = set(bbkeys.PERCEPTION_KEYS) | set(bbkeys.TASK_KEYS)
     for cls in SKILLS.values():
         found |= set(cls.WRITES)
@@ -72,88 +109,99 @@ def known_blackboard_keys() -> set[str]:
 
 
 class Validator:
-    """Turns the root mapping of a tree document into a NodeSpec tree, collecting errors."""
+    """Turns the root node of a tree document into a NodeSpec tree, collecting errors.
 
-    def __init__(self, subtrees: dict[str, SubtreeDef], has_design: bool):
+    The walk is generic: `kinds` (the table `assembly.node_kinds.NODE_KINDS`) says which fields
+    each kind has, and each kind's `check` reads its own fields with the helpers below.
+    """
+
+    def __init__(self, kinds: Mapping[str, NodeKind], subtrees: dict[str, SubtreeDef], has_design: bool):
+        self.kinds = kinds
         self.subtrees = subtrees
         self.has_design = has_design
         self.errors: list[TreeError] = []
         self._keys = known_blackboard_keys()
 
-    # ---- helpers ------------------------------------------------------------------------
-    def error(self, node, message: str, path: str, key: str | None = None, hint: str | None = None):
+    def error(self, node: Any, message: str, path: str, key: str | None = None, hint: str | None = None) -> None:
+        """Record a problem at `node` (at the line of its field `key`, if given)."""
         file = getattr(node, "file", None)
         line = node.line_of(key) if isinstance(node, Located) and key else getattr(node, "line", None)
         self.errors.append(TreeError(message, file, line, path, hint))
 
+    # ---- the walk ------------------------------------------------------------------------------
+    def node(self, node: Any, parent: str, scope: Scope, where: tuple[str | None, int | None] = (None, None)
+             ) -> NodeSpec | None:
+        """The NodeSpec of one node and its subtree of nodes; None when it cannot even be named.
+        `where` (file, line) locates a node that is not a mapping (and so has no line of its own)."""
+        if not isinstance(node, Located):
+            self.errors.append(TreeError(f"a node must be a mapping, got {node!r}", *where, parent or "/"))
+            return None
+        name_of_kind = self._kind(node, parent or "/")
+        if name_of_kind is None:
+            return None
+        kind = self.kinds[name_of_kind]
+        value = node[name_of_kind]
+        if kind.typed and not isinstance(value, str):
+            self.error(node, f"'{name_of_kind}' takes a {kind.value.lower()} name, got {value!r}",
+                       parent or "/", name_of_kind)
+            return None
+        type_, name = (value, node.get("name", value)) if kind.typed else ("", value)
+        if not isinstance(name, str) or not name or "/" in name:
+            self.error(node, f"node name must be a non-empty string without '/', got {name!r}",
+                       parent or "/", name_of_kind)
+            return None
+        path = f"{parent}/{name}" if parent else name
+        allowed = {*kind.fields, *COMMON_FIELDS}
+        for key in node:
+            if key not in allowed and key != name_of_kind:
+                self.error(node, f"unknown field {key!r} for a {name_of_kind}", path, key,
+                           did_you_mean(key, allowed))
+        missing = sorted(kind.required - set(node))
+        for key in missing:
+            self.error(node, f"missing required field {key!r} for a {name_of_kind}", path, name_of_kind)
+        if missing:
+            return None
+        spec = NodeSpec(name_of_kind, name, path, {}, [], node.file, node.line, type_)
+        own = [k for k in node if k != name_of_kind and k not in NODE_FIELDS and k not in kind.substitutes]
+        kind.check(self, spec, self._with_params(node, own, scope, spec), scope)
+        return spec
+
     def _kind(self, node: Located, path: str) -> str | None:
-        kinds = [k for k in node if k in KINDS]
+        kinds = [k for k in node if k in self.kinds]
         if len(kinds) == 1:
             return kinds[0]
         if not kinds:
             unknown = next((k for k in node if k not in COMMON_FIELDS and k != "name"), None)
             self.error(node, f"unknown node kind {unknown!r}" if unknown else "node has no kind",
-                       path, unknown, did_you_mean(unknown, KINDS) if unknown else
-                       f"start the node with one of: {', '.join(KINDS)}")
+                       path, unknown, did_you_mean(unknown, self.kinds) if unknown else
+                       f"start the node with one of: {', '.join(self.kinds)}")
         else:
             self.error(node, f"node has several kinds: {', '.join(kinds)}", path, kinds[1])
         return None
 
-    # ---- nodes --------------------------------------------------------------------------
-    def node(self, node: Any, parent: str, subs: dict[str, Any], stack: tuple[str, ...]) -> NodeSpec | None:
-        if not isinstance(node, Located):
-            self.errors.append(TreeError(f"a node must be a mapping, got {node!r}", None, None, parent or "/"))
-            return None
-        kind = self._kind(node, parent or "/")
-        if kind is None:
-            return None
-        value = node[kind]
-        if kind in ("skill", "subtree"):
-            type_, name = value, node.get("name", value)
-        else:
-            type_, name = "", value
-        if not isinstance(name, str) or not name or "/" in name:
-            self.error(node, f"node name must be a non-empty string without '/', got {name!r}",
-                       parent or "/", kind)
-            return None
-        path = f"{parent}/{name}" if parent else name
-        spec_fields = KINDS[kind]
-        allowed = spec_fields["required"] | spec_fields["optional"] | COMMON_FIELDS | {kind}
-        for key in node:
-            if key not in allowed:
-                self.error(node, f"unknown field {key!r} for a {kind}", path, key,
-                           did_you_mean(key, allowed - {kind}))
-        for key in sorted(spec_fields["required"] - set(node)):
-            self.error(node, f"missing required field {key!r} for a {kind}", path, kind)
-        if spec_fields["required"] - set(node):
-            return None
-        spec = NodeSpec(kind, name, path, {}, [], node.file, node.line, type_)
-        handler = getattr(self, f"_{kind}")
-        return handler(spec, self._with_params(node, kind, subs, spec), subs, stack)
-
-    _SUBSTITUTED_ELSEWHERE = {"children", "child", "params", "while", "key", "value"}
-
-    def _with_params(self, node: Located, kind: str, subs: dict, spec: NodeSpec) -> Located:
-        """The node with `$param` values of its own fields (e.g. `times: $count`) filled in."""
-        fields = [k for k in node if k != kind and k not in self._SUBSTITUTED_ELSEWHERE]
+    def _with_params(self, node: Located, fields: list[str], scope: Scope, spec: NodeSpec) -> Located:
+        """The node with `$param` values of the given fields (e.g. `times: $count`) filled in."""
         if not any(isinstance(node[k], (str, list)) for k in fields):
             return node
         out = Located(node)
         out.file, out.line, out.key_lines = node.file, node.line, node.key_lines
         for key in fields:
-            out[key] = self._substitute(node[key], subs, spec, node)
+            out[key] = self.substitute(node[key], scope, spec, node)
         return out
 
-    def _children(self, spec, node, subs, stack, key="children"):
+    # ---- helpers for the kinds' checks -----------------------------------------------------------
+    def children(self, spec: NodeSpec, node: Located, scope: Scope, key: str = "children") -> None:
+        """Validate the node(s) under `key` (`child` or `children`) into spec.children."""
         items = node[key]
         if key == "child":
             items = [items]
         elif not isinstance(items, list) or not items:
             self.error(node, f"'{key}' must be a non-empty list of nodes", spec.path, key)
-            return spec
+            return
+        lines = items.item_lines if isinstance(items, LocatedList) else [node.line_of(key)] * len(items)
         names = {}
-        for item in items:
-            child = self.node(item, spec.path, subs, stack)
+        for item, line in zip(items, lines):
+            child = self.node(item, spec.path, scope, (node.file, line))
             if child is None:
                 continue
             if child.name in names:
@@ -161,106 +209,27 @@ class Validator:
                            child.path, hint=f"first used on line {names[child.name]}")
             names[child.name] = child.line
             spec.children.append(child)
-        return spec
 
-    def _bool(self, spec, node, key):
+    def flag(self, spec: NodeSpec, node: Located, key: str) -> Any:
+        """The field `key`, which must be true or false."""
         if not isinstance(node[key], bool):
             self.error(node, f"'{key}' must be true or false, got {node[key]!r}", spec.path, key)
         return node[key]
 
-    def _sequence(self, spec, node, subs, stack):
-        spec.args["memory"] = self._bool(spec, node, "memory")
-        return self._children(spec, node, subs, stack)
-
-    _selector = _sequence
-
-    def _parallel(self, spec, node, subs, stack):
-        policy = node["policy"]
-        if policy not in POLICIES:
-            self.error(node, f"policy must be one of {', '.join(POLICIES)}, got {policy!r}",
-                       spec.path, "policy", did_you_mean(policy, POLICIES))
-        spec.args["policy"] = policy
-        spec.args["synchronise"] = node.get("synchronise", False)
-        if "synchronise" in node:
-            self._bool(spec, node, "synchronise")
-        self._children(spec, node, subs, stack)
-        selected = node.get("selected")
-        if policy == "selected":
-            names = [c.name for c in spec.children]
-            if not isinstance(selected, list) or not selected:
-                self.error(node, "policy 'selected' needs 'selected: [child names]'", spec.path, "policy")
-            else:
-                for s in selected:
-                    if s not in names:
-                        self.error(node, f"selected child {s!r} is not a child of this parallel",
-                                   spec.path, "selected", did_you_mean(s, names))
-            spec.args["selected"] = selected or []
-        elif selected is not None:
-            self.error(node, "'selected' only applies to policy 'selected'", spec.path, "selected")
-        return spec
-
-    def _count(self, spec, node, key, minimum, allow_forever=False):
+    def count(self, spec: NodeSpec, node: Located, key: str, minimum: int, allow_forever: bool = False) -> Any:
+        """The field `key`, which must be an integer >= minimum (or -1 when `allow_forever`)."""
         value = node[key]
         ok = isinstance(value, int) and not isinstance(value, bool) and (
             value >= minimum or (allow_forever and value == -1))
         if not ok:
             extra = " (or -1 for ever)" if allow_forever else ""
             self.error(node, f"'{key}' must be an integer >= {minimum}{extra}, got {value!r}", spec.path, key)
-        spec.args[key] = value
+        return value
 
-    def _retry(self, spec, node, subs, stack):
-        self._count(spec, node, "attempts", 1)
-        return self._children(spec, node, subs, stack, "child")
-
-    def _repeat(self, spec, node, subs, stack):
-        self._count(spec, node, "times", 1, allow_forever=True)
-        return self._children(spec, node, subs, stack, "child")
-
-    def _timeout(self, spec, node, subs, stack):
-        seconds = node["seconds"]
-        if not isinstance(seconds, (int, float)) or isinstance(seconds, bool) or seconds <= 0:
-            self.error(node, f"'seconds' must be a positive number, got {seconds!r}", spec.path, "seconds")
-        spec.args["seconds"] = seconds
-        return self._children(spec, node, subs, stack, "child")
-
-    def _inverter(self, spec, node, subs, stack):
-        return self._children(spec, node, subs, stack, "child")
-
-    def _status_map(self, spec, node, subs, stack):
-        mapping = node["map"]
-        if not isinstance(mapping, dict) or not mapping:
-            self.error(node, "'map' must map statuses, e.g. {failure: success}", spec.path, "map")
-        else:
-            for k, v in mapping.items():
-                for s in (k, v):
-                    if s not in STATUSES:
-                        self.error(node, f"unknown status {s!r} in 'map'", spec.path, "map",
-                                   did_you_mean(s, STATUSES) or f"use {', '.join(STATUSES)}")
-        spec.args["map"] = dict(mapping) if isinstance(mapping, dict) else {}
-        return self._children(spec, node, subs, stack, "child")
-
-    def _guard(self, spec, node, subs, stack):
-        cond = node["while"]
-        if not isinstance(cond, Located):
-            self.error(node, "'while' must be a condition mapping {key, op, value}", spec.path, "while")
-        else:
-            spec.args["while"] = self._check_condition(spec, cond, subs)
-        return self._children(spec, node, subs, stack, "child")
-
-    def _for_each_element(self, spec, node, subs, stack):
-        if not self.has_design:
-            self.error(node, "for_each_element needs a design model", spec.path, "for_each_element",
-                       "add 'design: path/to/model.json' at the top of the tree file")
-        spec.args["elements"] = node.get("elements")
-        return self._children(spec, node, subs, stack, "child")
-
-    def _condition(self, spec, node, subs, stack):
-        spec.args.update(self._check_condition(spec, node, subs))
-        return spec
-
-    def _check_condition(self, spec, node, subs) -> dict:
-        key, op = self._substitute(node.get("key"), subs, spec, node), node.get("op")
-        value = self._substitute(node.get("value"), subs, spec, node)
+    def condition(self, spec: NodeSpec, node: Located, scope: Scope) -> dict:
+        """`{key, op, value}` of a condition mapping, `$params` filled in."""
+        key, op = self.substitute(node.get("key"), scope, spec, node), node.get("op")
+        value = self.substitute(node.get("value"), scope, spec, node)
         try:
             base, _ = split_key(str(key))
             if base not in self._keys:
@@ -275,79 +244,26 @@ class Validator:
             self.error(node, f"op {op!r} needs a 'value'", spec.path, "op")
         return {"key": key, "op": op, "value": value}
 
-    def _skill(self, spec, node, subs, stack):
-        cls = SKILLS.get(spec.type)
-        if cls is None:
-            self.error(node, f"unknown skill {spec.type!r}", spec.path, "skill",
-                       did_you_mean(spec.type, SKILLS) or "run 'fvtree skills' to list them")
-            return spec
-        params = self._params(spec, node, subs)
-        unknown = [key for key in params if key not in cls.PARAMS]
-        for key in unknown:
-            self.error(node, f"unknown param {key!r} for skill {spec.type!r}", spec.path, "params",
-                       did_you_mean(key, cls.PARAMS) or f"known: {', '.join(cls.PARAMS) or 'none'}")
-        if unknown:
-            return spec
-        try:
-            spec.args["params"] = cls.resolve_params(params)
-        except (KeyError, ValueError) as exc:
-            self.error(node, str(exc).strip("'\""), spec.path, "params")
-        return spec
-
-    def _params(self, spec, node, subs) -> dict:
+    def params(self, spec: NodeSpec, node: Located, scope: Scope) -> dict:
+        """The node's `params` mapping with `$params` filled in (unchecked: the kind checks it)."""
         params = node.get("params", {}) or {}
         if not isinstance(params, dict):
             self.error(node, f"'params' must be a mapping, got {params!r}", spec.path, "params")
             return {}
-        return {k: self._substitute(v, subs, spec, node) for k, v in params.items()}
+        return {k: self.substitute(v, scope, spec, node) for k, v in params.items()}
 
-    def _substitute(self, value, subs, spec, node):
+    def substitute(self, value: Any, scope: Scope, spec: NodeSpec, node: Located) -> Any:
+        """`value` with a `$param` string (or `$param` list items) replaced by the param's value."""
         if isinstance(value, str) and value.startswith("$"):
-            if value[1:] in subs:
-                return subs[value[1:]]
+            if value[1:] in scope.params:
+                return scope.params[value[1:]]
+            known = f"its params: {', '.join(scope.params)}" if scope.params else "only subtrees take $params"
             self.error(node, f"{value} is not a parameter of the enclosing subtree", spec.path,
-                       hint=did_you_mean(value[1:], subs) or (
-                           f"its params: {', '.join(subs)}" if subs else "only subtrees take $params"))
+                       hint=did_you_mean(value[1:], scope.params) or known)
             return None
         if isinstance(value, list):
-            return [self._substitute(v, subs, spec, node) for v in value]
+            return [self.substitute(v, scope, spec, node) for v in value]
         return value
-
-    def _subtree(self, spec, node, subs, stack):
-        ref = spec.type
-        definition = self.subtrees.get(ref)
-        if definition is None:
-            self.error(node, f"unknown subtree {ref!r}", spec.path, "subtree",
-                       did_you_mean(ref, self.subtrees) or "define it under 'subtrees:' or include its file")
-            return spec
-        if ref in stack:
-            chain = " -> ".join(stack[stack.index(ref):] + (ref,))
-            self.error(node, f"recursive subtree: {chain}", spec.path, "subtree")
-            return spec
-        given = self._params(spec, node, subs)
-        values = {}
-        before = len(self.errors)
-        for key in given:
-            if key not in definition.params:
-                self.error(node, f"unknown param {key!r} for subtree {ref!r}", spec.path, "params",
-                           did_you_mean(key, definition.params) or
-                           f"known: {', '.join(definition.params) or 'none'}")
-        for key, decl in definition.params.items():
-            if key in given:
-                try:
-                    values[key] = decl.check(given[key])
-                except ValueError as exc:
-                    self.error(node, f"param {key!r}: {exc}", spec.path, "params")
-            elif decl.required:
-                self.error(node, f"missing param {key!r} for subtree {ref!r}", spec.path, "subtree")
-            else:
-                values[key] = decl.default
-        if len(self.errors) > before:
-            return spec  # the body would only repeat the parameter problems
-        body = self.node(definition.root, spec.path, values, stack + (ref,))
-        if body is not None:
-            spec.children.append(body)
-        return spec
 
 
 def subtree_params(raw: Any, where: Located, name: str, errors: list[TreeError]) -> dict[str, Param]:
@@ -360,18 +276,24 @@ def subtree_params(raw: Any, where: Located, name: str, errors: list[TreeError])
                                 f"subtrees/{name}"))
         return out
     for pname, decl in raw.items():
+        line = raw.line_of(pname) if isinstance(raw, Located) else where.line_of("params")
         if isinstance(decl, str):
             decl = {"type": decl}
         ptype = decl.get("type") if isinstance(decl, dict) else None
         if ptype not in PARAM_TYPES:
             errors.append(TreeError(f"param {pname!r}: type must be one of {', '.join(PARAM_TYPES)}",
-                                    where.file, where.line_of("params"), f"subtrees/{name}",
-                                    did_you_mean(ptype, PARAM_TYPES)))
+                                    where.file, line, f"subtrees/{name}", did_you_mean(ptype, PARAM_TYPES)))
             continue
-        extra = set(decl) - {"type", "default", "doc", "unit"}
+        extra = set(decl) - set(PARAM_FIELDS)
         if extra:
             errors.append(TreeError(f"param {pname!r}: unknown field {sorted(extra)[0]!r}", where.file,
-                                    where.line_of("params"), f"subtrees/{name}"))
-        out[pname] = Param(ptype, decl.get("doc", ""), decl.get("default", REQUIRED), decl.get("unit", ""))
+                                    line, f"subtrees/{name}", did_you_mean(sorted(extra)[0], PARAM_FIELDS)))
+        param = Param(ptype, decl.get("doc", ""), decl.get("default", REQUIRED), decl.get("unit", ""))
+        if not param.required:
+            try:
+                param = replace(param, default=param.check(param.default))
+            except ValueError as exc:
+                errors.append(TreeError(f"param {pname!r}: default: {exc}", where.file, line, f"subtrees/{name}"))
+                continue
+        out[pname] = param
     return out
-

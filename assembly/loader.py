@@ -7,21 +7,18 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import py_trees
-from py_trees.common import ParallelPolicy, Status
 
-from assembly.conditions import Condition
-from assembly.decorators import CellTimeout, Guard, StatusMap
 from assembly.design import DesignModel
-from assembly.errors import TreeError, TreeErrors, did_you_mean
-from assembly.iteration import ForEachElement
-from assembly.language import NodeSpec, SubtreeDef, Validator, subtree_params
+from assembly.errors import TreeError, TreeErrors
+from assembly.language import NodeSpec, Scope, SubtreeDef, Validator, subtree_params
+from assembly.node_kinds import NODE_KINDS
 from assembly.yaml_source import Located, load_file, load_text
-from behaviours.registry import SKILLS
+from perception.errors import FvtreeError, did_you_mean
 
 TOP_FIELDS = {"version", "name", "doc", "cell", "design", "include", "subtrees", "root"}
 CELL_FIELDS = {"tick_hz": (int, float), "scene": (str,)}
 SUPPORTED_VERSIONS = (1,)
-_STATUS = {"success": Status.SUCCESS, "failure": Status.FAILURE, "running": Status.RUNNING}
+SUBTREE_FIELDS = ("params", "root", "doc")
 
 
 @dataclass
@@ -37,9 +34,18 @@ class TreeDocument:
     subtrees: dict[str, SubtreeDef] = field(default_factory=dict)
 
 
-def _top_level(doc, file: str, errors: list[TreeError], need_root: bool) -> None:
+def _scenes() -> dict:
+    """The simulated scenes a tree may name (imported when a tree is loaded: the sims are large)."""
+    from drivers.sim.scenes import SCENES
+
+    return SCENES
+
+
+def _top_level(doc: object, file: str, errors: list[TreeError], need_root: bool) -> bool:
+    """Check the top-level fields of a tree (or included) file; False if it is not even a mapping."""
     if not isinstance(doc, Located):
-        raise TreeErrors([TreeError("a tree file is a YAML mapping (version, name, root, ...)", file, 1)])
+        errors.append(TreeError("a tree file is a YAML mapping (version, name, root, ...)", file, 1))
+        return False
     for key in doc:
         if key not in TOP_FIELDS:
             errors.append(TreeError(f"unknown top-level field {key!r}", file, doc.line_of(key),
@@ -51,6 +57,7 @@ def _top_level(doc, file: str, errors: list[TreeError], need_root: bool) -> None
     for key in required:
         if key not in doc:
             errors.append(TreeError(f"missing top-level field {key!r}", file, doc.line))
+    return True
 
 
 def _collect_subtrees(doc: Located, file: str, out: dict[str, SubtreeDef], errors: list[TreeError],
@@ -73,8 +80,7 @@ def _collect_subtrees(doc: Located, file: str, out: dict[str, SubtreeDef], error
             errors.append(TreeError(f"include {rel!r}: {exc.message}", exc.file or file,
                                     exc.line or line))
             continue
-        _top_level(sub, str(base / str(rel)), errors, need_root=False)
-        if isinstance(sub, Located):
+        if _top_level(sub, str(base / str(rel)), errors, need_root=False):
             _collect_subtrees(sub, str(base / str(rel)), out, errors, seen_files + (target,))
     subtrees = doc.get("subtrees", {}) or {}
     if not isinstance(subtrees, dict):
@@ -90,22 +96,15 @@ def _collect_subtrees(doc: Located, file: str, out: dict[str, SubtreeDef], error
             errors.append(TreeError(f"subtree {name!r} needs a 'root' node", file, line))
             continue
         for key in body:
-            if key not in ("params", "root", "doc"):
+            if key not in SUBTREE_FIELDS:
                 errors.append(TreeError(f"unknown field {key!r} in subtree {name!r}", file,
-                                        body.line_of(key), hint=did_you_mean(key, ("params", "root", "doc"))))
+                                        body.line_of(key), hint=did_you_mean(key, SUBTREE_FIELDS)))
         params = subtree_params(body.get("params"), body, name, errors)
         out[name] = SubtreeDef(name, params, body["root"], file, line)
 
 
-def load_tree(path: str | Path | None = None, text: str | None = None, name: str = "<tree>") -> TreeDocument:
-    """Parse and validate a tree file (or `text`); raises TreeErrors listing every problem."""
-    file = str(path) if path is not None else name
-    try:
-        doc = load_file(path) if text is None else load_text(text, file)
-    except TreeError as exc:
-        raise TreeErrors([exc]) from None
-    errors: list[TreeError] = []
-    _top_level(doc, file, errors, need_root=True)
+def _cell_settings(doc: Located, file: str, errors: list[TreeError]) -> tuple[float, str]:
+    """The tree's `cell:` settings (tick rate, simulated scene), checked."""
     cell = doc.get("cell", {}) or {}
     if not isinstance(cell, dict):
         errors.append(TreeError("'cell' must be a mapping", file, doc.line_of("cell")))
@@ -116,27 +115,54 @@ def load_tree(path: str | Path | None = None, text: str | None = None, name: str
                                     hint=did_you_mean(key, CELL_FIELDS)))
         elif not isinstance(value, CELL_FIELDS[key]) or isinstance(value, bool):
             errors.append(TreeError(f"cell.{key} has the wrong type: {value!r}", file, cell.line_of(key)))
+    scene = cell.get("scene", "assembly")
+    if isinstance(scene, str) and scene not in _scenes():
+        errors.append(TreeError(f"no simulated scene {scene!r}", file, cell.line_of("scene"), "cell.scene",
+                                did_you_mean(scene, _scenes()) or f"known: {', '.join(sorted(_scenes()))}"))
     tick_hz = cell.get("tick_hz", 30)
     if isinstance(tick_hz, (int, float)) and not 0 < tick_hz <= 1000:
-        errors.append(TreeError(f"cell.tick_hz must be in (0, 1000], got {tick_hz}", file, cell.line_of("tick_hz")))
-    design = None
-    if "design" in doc:
-        design_path = Path(file).parent / str(doc["design"])
-        try:
-            design = DesignModel.load(design_path)
-        except TreeError as exc:
-            errors.append(TreeError(f"design: {exc.message}", exc.file, exc.line or None, hint=exc.hint))
+        errors.append(TreeError(f"cell.tick_hz must be in (0, 1000], got {tick_hz}", file,
+                                cell.line_of("tick_hz")))
+    return tick_hz, scene
+
+
+def _design(doc: Located, file: str, errors: list[TreeError]) -> DesignModel | None:
+    """The design model the tree names (relative to the tree file), if any."""
+    if "design" not in doc:
+        return None
+    try:
+        return DesignModel.load(Path(file).parent / str(doc["design"]))
+    except FvtreeError as exc:
+        if exc.line:  # a place in the design file
+            errors.append(TreeError(f"design: {exc.message}", exc.file, exc.line, hint=exc.hint))
+        else:  # the design file as a whole: point at the tree's `design:` line
+            errors.append(TreeError(f"design {exc.file}: {exc.message}", file, doc.line_of("design"),
+                                    hint=exc.hint))
+        return None
+
+
+def load_tree(path: str | Path | None = None, text: str | None = None, name: str = "<tree>") -> TreeDocument:
+    """Parse and validate a tree file (or `text`); raises TreeErrors listing every problem."""
+    file = str(path) if path is not None else name
+    try:
+        doc = load_file(path) if text is None else load_text(text, file)
+    except TreeError as exc:
+        raise TreeErrors([exc]) from None
+    errors: list[TreeError] = []
+    if not _top_level(doc, file, errors, need_root=True):
+        raise TreeErrors(errors)
+    tick_hz, scene = _cell_settings(doc, file, errors)
+    design = _design(doc, file, errors)
     subtrees: dict[str, SubtreeDef] = {}
     _collect_subtrees(doc, file, subtrees, errors, (str(Path(file).resolve()),))
     root = None
     if "root" in doc:
-        validator = Validator(subtrees, has_design=design is not None or "design" in doc)
-        root = validator.node(doc["root"], "", {}, ())
+        validator = Validator(NODE_KINDS, subtrees, has_design="design" in doc)
+        root = validator.node(doc["root"], "", Scope(), (file, doc.line_of("root")))
         errors.extend(validator.errors)
     if errors:
         raise TreeErrors(errors)
-    return TreeDocument(file, str(doc["name"]), float(tick_hz), str(cell.get("scene", "assembly")),
-                        design, root, subtrees)
+    return TreeDocument(file, str(doc["name"]), float(tick_hz), scene, design, root, subtrees)
 
 
 # ---- building ---------------------------------------------------------------------------------
@@ -156,48 +182,11 @@ class BuiltTree:
 
 
 def build(doc: TreeDocument) -> BuiltTree:
+    """The py_trees tree of a validated document: each node built by its kind, children first."""
     nodes: dict[str, py_trees.behaviour.Behaviour] = {}
 
     def make(spec: NodeSpec) -> py_trees.behaviour.Behaviour:
-        kids = [make(c) for c in spec.children]
-        a = spec.args
-        if spec.kind == "sequence":
-            node = py_trees.composites.Sequence(name=spec.name, memory=a["memory"], children=kids)
-        elif spec.kind == "selector":
-            node = py_trees.composites.Selector(name=spec.name, memory=a["memory"], children=kids)
-        elif spec.kind == "parallel":
-            if a["policy"] == "all":
-                policy = ParallelPolicy.SuccessOnAll(synchronise=a["synchronise"])
-            elif a["policy"] == "one":
-                policy = ParallelPolicy.SuccessOnOne()
-            else:
-                chosen = [k for k in kids if k.name in a["selected"]]
-                policy = ParallelPolicy.SuccessOnSelected(children=chosen, synchronise=a["synchronise"])
-            node = py_trees.composites.Parallel(name=spec.name, policy=policy, children=kids)
-        elif spec.kind == "retry":
-            node = py_trees.decorators.Retry(name=spec.name, child=kids[0], num_failures=a["attempts"])
-        elif spec.kind == "repeat":
-            node = py_trees.decorators.Repeat(name=spec.name, child=kids[0], num_success=a["times"])
-        elif spec.kind == "timeout":
-            node = CellTimeout(spec.name, kids[0], float(a["seconds"]))
-        elif spec.kind == "inverter":
-            node = py_trees.decorators.Inverter(name=spec.name, child=kids[0])
-        elif spec.kind == "status_map":
-            mapping = {_STATUS[k]: _STATUS[v] for k, v in a["map"].items()}
-            node = StatusMap(spec.name, kids[0], mapping)
-        elif spec.kind == "guard":
-            c = a["while"]
-            node = Guard(spec.name, kids[0], Condition(f"{spec.name}?", c["key"], c["op"], c["value"]))
-        elif spec.kind == "for_each_element":
-            node = ForEachElement(spec.name, kids[0], a.get("elements"))
-        elif spec.kind == "condition":
-            node = Condition(spec.name, a["key"], a["op"], a["value"])
-        elif spec.kind == "skill":
-            node = SKILLS[spec.type](spec.name, resolved=a["params"])
-        elif spec.kind == "subtree":
-            node = py_trees.decorators.PassThrough(name=spec.name, child=kids[0])
-        else:  # pragma: no cover - the validator knows every kind
-            raise AssertionError(spec.kind)
+        node = NODE_KINDS[spec.kind].build(spec, [make(c) for c in spec.children])
         nodes[spec.path] = node
         return node
 

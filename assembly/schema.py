@@ -3,10 +3,8 @@ declarations so editors (yaml-language-server) check trees as they are typed."""
 
 from __future__ import annotations
 
-from typing import Any
-
-from assembly.conditions import ALL_OPS
-from assembly.language import COMMON_FIELDS, KINDS, PARAM_TYPES, POLICIES, STATUSES
+from assembly.language import PARAM_TYPES
+from assembly.node_kinds import NODE, NODE_KINDS, SCHEMA_DEFS
 from behaviours.base import Param
 from behaviours.registry import SKILLS
 
@@ -49,61 +47,11 @@ def skills_table() -> str:
     return "\n".join(lines).rstrip() + "\n"
 
 
-def _param_schema(p: Param) -> dict:
-    if p.type == "vector":
-        s: dict[str, Any] = {"type": "array", "items": {"type": "number"}}
-        if p.length:
-            s["minItems"] = s["maxItems"] = p.length
-        items = s["items"]
-    else:
-        s = {"type": {"float": "number", "int": "integer", "bool": "boolean", "str": "string"}[p.type]}
-        items = s
-    if p.min is not None:
-        items["minimum"] = p.min
-    if p.max is not None:
-        items["maximum"] = p.max
-    if p.choices:
-        s["enum"] = list(p.choices)
-    s["description"] = p.doc + (f" [{p.unit}]" if p.unit else "")
-    if not p.required and p.default is not None:
-        s["default"] = p.default
-    return s
-
-
-def _skill_node(name: str, cls) -> dict:
-    props = {"skill": {"const": name}, "name": {"type": "string"}, "doc": {"type": "string"},
-             "params": {"type": "object", "additionalProperties": False,
-                        "properties": {k: {"anyOf": [_param_schema(p), {"type": "string", "pattern": r"^\$"}]}
-                                       for k, p in cls.PARAMS.items()}}}
-    return {"type": "object", "required": ["skill"], "additionalProperties": False, "properties": props,
-            "description": cls.SUMMARY}
-
-
 def tree_schema() -> dict:
-    node = {"$ref": "#/$defs/node"}
-    field_schema = {
-        "memory": {"type": "boolean"}, "children": {"type": "array", "items": node, "minItems": 1},
-        "child": node, "policy": {"enum": list(POLICIES)}, "synchronise": {"type": "boolean"},
-        "selected": {"type": "array", "items": {"type": "string"}},
-        "attempts": {"type": "integer", "minimum": 1}, "times": {"type": "integer", "minimum": -1},
-        "seconds": {"type": "number", "exclusiveMinimum": 0},
-        "map": {"type": "object", "propertyNames": {"enum": list(STATUSES)},
-                "additionalProperties": {"enum": list(STATUSES)}},
-        "while": {"$ref": "#/$defs/condition"}, "elements": {"type": "array", "items": {"type": "string"}},
-        "key": {"type": "string", "pattern": "^/"}, "op": {"enum": list(ALL_OPS)}, "value": {},
-        "params": {"type": "object"}, "name": {"type": "string"}, "doc": {"type": "string"},
-    }
-    variants = []
-    for kind, spec in KINDS.items():
-        if kind == "skill":
-            continue
-        fields = spec["required"] | spec["optional"] | COMMON_FIELDS
-        props = {kind: {"type": "string"}, **{f: field_schema[f] for f in fields}}
-        variants.append({"type": "object", "required": [kind, *sorted(spec["required"])],
-                         "additionalProperties": False, "properties": props})
-    variants += [_skill_node(n, c) for n, c in sorted(SKILLS.items())]
+    """JSON Schema (draft 2020-12) of a tree file, every node kind and skill included."""
+    variants = [variant for name, kind in NODE_KINDS.items() for variant in kind.json_schema(name)]
     param_decl = {"anyOf": [{"enum": list(PARAM_TYPES)},
-                            {"type": "object", "required": ["type"],
+                            {"type": "object", "required": ["type"], "additionalProperties": False,
                              "properties": {"type": {"enum": list(PARAM_TYPES)}, "default": {},
                                             "doc": {"type": "string"}, "unit": {"type": "string"}}}]}
     return {
@@ -120,13 +68,9 @@ def tree_schema() -> dict:
             "design": {"type": "string"}, "include": {"type": "array", "items": {"type": "string"}},
             "subtrees": {"type": "object", "additionalProperties": {
                 "type": "object", "required": ["root"], "additionalProperties": False,
-                "properties": {"doc": {"type": "string"}, "root": node,
+                "properties": {"doc": {"type": "string"}, "root": NODE,
                                "params": {"type": "object", "additionalProperties": param_decl}}}},
-            "root": node,
+            "root": NODE,
         },
-        "$defs": {
-            "node": {"oneOf": variants},
-            "condition": {"type": "object", "required": ["key", "op"], "additionalProperties": False,
-                          "properties": {"key": field_schema["key"], "op": field_schema["op"], "value": {}}},
-        },
+        "$defs": {"node": {"oneOf": variants}, **SCHEMA_DEFS},
     }

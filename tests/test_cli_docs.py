@@ -53,5 +53,5 @@ def test_show_prints_kinds_and_params(capsys):
 
 
 def test_show_with_a_missing_run_dir_is_a_clear_error(tmp_path, capsys):
-    assert main(["show", str(TREES / "assembly.yaml"), "--run", str(tmp_path)]) == 1
+    assert main(["show", str(TREES / "assembly.yaml"), "--run", str(tmp_path)]) == 2
     assert "no transition log" in capsys.readouterr().err

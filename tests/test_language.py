@@ -198,3 +198,27 @@ root: {subtree: again, name: thrice, params: {count: 3}}
     built = build(load_tree(text=text, name="s.yaml"))
     assert built.nodes["thrice/loop"].num_success == 3
     assert built.nodes["thrice/loop/limit"].duration == 2.0
+
+
+def test_a_node_that_is_not_a_mapping_is_located(tree_file):
+    [msg] = errors_of(GOOD.replace("    - {condition: near", "    - near\n    - {condition: near"), tree_file)
+    assert "tree.yaml:8: root: a node must be a mapping, got 'near'" in msg
+
+
+def test_a_skill_type_must_be_a_name(tree_file):
+    [msg] = errors_of(GOOD.replace("skill: move_to, name: up", "skill: [move_to], name: up"), tree_file)
+    assert "tree.yaml:7: root: 'skill' takes a type name, got ['move_to']" in msg
+
+
+def test_unprintable_characters_and_binary_files(tree_file):
+    [msg] = errors_of("version: 1\nname: t\x07\n", tree_file)
+    assert "tree.yaml:2: malformed YAML: character #x0007" in msg
+    path = tree_file("")
+    path.write_bytes(b"\xff\xfe\x00binary")
+    with pytest.raises(TreeErrors, match="not a text file"):
+        load_tree(path)
+
+
+def test_a_missing_design_points_at_the_tree_line(tree_file):
+    [msg] = errors_of(GOOD.replace("name: t\n", "name: t\ndesign: nowhere.json\n"), tree_file)
+    assert "tree.yaml:3: design " in msg and "nowhere.json: design file not found" in msg
