@@ -1,11 +1,12 @@
 """The design model: elements, plates and precedence as a networkx DiGraph in node-link JSON
 (`edges="edges"`), its build order, and the bridge that writes as-built data back atomically.
 
-Node kinds:
-  element: size [length, width, depth] (m), pick_pose [6], plate (id it props), mass (kg),
-           planned_pose [6] (optional), status planned|placed, asbuilt_pose, measured_load
-  plate:   origin [x, y, z_soffit] (left support), span (m), width (m), sim_load (simulation only)
-An edge u -> v means u must be in place before v.
+Node kinds (lengths in m, poses [x, y, z, rx, ry, rz] in the robot base frame):
+  element: size [length, width, depth], pick_pose, plate (id it props), mass (kg),
+           planned_pose (optional), status planned|placed, asbuilt_pose, measured_load
+  plate:   origin [x, y, z_soffit] (left support), span, width
+An edge u -> v means u must be in place before v. The model holds the design only: what a
+simulated cell knows beyond it (the plates' loads) is in the scene file next to it.
 """
 
 from __future__ import annotations
@@ -18,8 +19,9 @@ from typing import Any
 import networkx as nx
 import numpy as np
 
-from assembly.errors import TreeError, did_you_mean
+from assembly.errors import TreeError
 from assembly.files import append_json_line, atomic_write_json
+from perception.errors import did_you_mean
 
 _ELEMENT_FIELDS = {"size": 3, "pick_pose": 6}
 _PLATE_FIELDS = {"origin": 3}
@@ -28,9 +30,10 @@ _PLATE_FIELDS = {"origin": 3}
 class DesignModel:
     """A validated design graph."""
 
-    def __init__(self, graph: nx.DiGraph, source: str = "<memory>"):
+    def __init__(self, graph: nx.DiGraph, path: str | Path | None = None):
         self.graph = graph
-        self.source = source
+        self.path = Path(path) if path is not None else None  # the design file, if loaded from one
+        self.source = str(path) if path is not None else "<memory>"
         self._validate()
 
     @classmethod
@@ -51,7 +54,7 @@ class DesignModel:
             graph = nx.node_link_graph(data, directed=True, edges="edges")
         except (KeyError, TypeError, nx.NetworkXError) as exc:
             raise TreeError(f"cannot read the graph: {exc}", str(path)) from None
-        return cls(nx.DiGraph(graph), str(path))
+        return cls(nx.DiGraph(graph), path)
 
     def to_data(self) -> dict:
         return nx.node_link_data(self.graph, edges="edges")
@@ -70,6 +73,10 @@ class DesignModel:
                 if not isinstance(value, list) or len(value) != length:
                     self._fail(f"node {node!r}: field {name!r} must be a list of {length} numbers, "
                                f"got {value!r}")
+            if "sim_load" in attrs:
+                scene = f"{self.path.stem}.scene.yaml" if self.path else "the scene file next to the design"
+                self._fail(f"{kind} {node!r}: field 'sim_load' is simulation data, not design",
+                           f"move it to {scene}: 'plates: {{{node}: {{EI: .., w: .., P: .., c: .., k: ..}}}}'")
             if kind == "plate":
                 for name in ("span", "width"):
                     if not isinstance(attrs.get(name), (int, float)) or attrs[name] <= 0:
@@ -101,10 +108,12 @@ class DesignModel:
         return self.graph.nodes[eid].get("status") == "placed"
 
     def scene_args(self) -> dict:
-        """Plain-data description of elements and plates for building a simulated scene."""
+        """Plain-data description of elements and plates for building a simulated scene, with
+        the design file's path (None in memory): the scene reads its own file next to it."""
         return {
             "elements": [self.element(e) for e in self.build_order()],
             "plates": [{"id": p, **a} for p, a in self.plates().items()],
+            "design_file": None if self.path is None else str(self.path),
         }
 
 

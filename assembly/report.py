@@ -1,5 +1,6 @@
 """Run summaries: per placed element, the chosen position against the true maximum-load
-position (simulation only) with the force regret, sim and wall time, and a load-profile chart."""
+position with the force regret (from the simulated world's truth), the scene's metrics, sim and
+wall time, and a load-profile chart."""
 
 from __future__ import annotations
 
@@ -8,46 +9,34 @@ from pathlib import Path
 
 import numpy as np
 
+from assembly.design import DesignModel
 from assembly.files import atomic_write_json, to_jsonable
 from assembly.runner import RunResult
+from drivers.cell import Cell
+from drivers.protocols import World
+
+CURVE = "true_load_curve"  # a world's truth per element: the true load along the plate, for charts
 
 
-def element_truth(world, element_id: str) -> dict | None:
-    """Placed position along its plate vs the plate's true maximum for the placed element."""
-    e = world.elements.get(element_id)
-    if e is None or e.state != "standing":
-        return None
-    _, top = e.ends()
-    plate = world.plate_above(top)
-    if plate is None:
-        return None
-    clearance = plate.origin[2] - top[2]
-    a = plate.position_along(top)
-    a_best, r_best = plate.beam.max_load(clearance)
-    r = float(plate.beam.carried_force(a, clearance))
-    return {"plate": plate.id, "position": a, "true_best_position": a_best, "load_N": r,
-            "true_max_load_N": r_best, "regret": (r_best - r) / r_best if r_best > 0 else 0.0}
-
-
-def summarize(result: RunResult, cell, design) -> dict:
+def summarize(result: RunResult, cell: Cell, design: DesignModel | None) -> dict:
+    """The run's summary: status, where it stopped, timing, safety, the scene's metrics and, per
+    element of the design, its as-built data with the world's truth about it (simulation only)."""
+    truth = cell.world.truth() if cell.world is not None else {}
     elements = {}
     for eid in (design.build_order() if design else []):
         node = design.graph.nodes[eid]
         entry = {"status": node.get("status", "planned"), "measured_load_px": node.get("measured_load"),
                  "asbuilt_pose": node.get("asbuilt_pose")}
-        if cell.world is not None and hasattr(cell.world, "elements"):
-            truth = element_truth(cell.world, eid)
-            if truth:
-                entry.update(truth)
+        entry.update((k, v) for k, v in truth.get(eid, {}).items() if k != CURVE)
         elements[eid] = entry
-    metrics = cell.world.metrics() if cell.world is not None and hasattr(cell.world, "metrics") else {}
+    metrics = cell.world.metrics() if cell.world is not None else {}
     return {
         "status": result.status, "message": result.message, "where": result.where,
         "metrics": metrics,
         "ticks": result.ticks, "sim_time_s": round(result.sim_time, 3),
         "wall_time_s": round(result.wall_time, 3),
         "real_time_factor": round(result.real_time_factor, 1),
-        "safety_clamps": getattr(cell.arm, "clamped", 0), "arm_fault": cell.arm.fault(),
+        "safety_clamps": cell.arm.clamped, "arm_fault": cell.arm.fault(),
         "elements": elements,
     }
 
@@ -75,8 +64,9 @@ def format_summary(summary: dict) -> str:
     return "\n".join(lines)
 
 
-def plot_profiles(profiles: dict[str, dict], summary: dict, world, path: Path) -> Path | None:
-    """One panel per element: measured load along the plate, smoothing, chosen point, truth."""
+def plot_profiles(profiles: dict[str, dict], summary: dict, world: World | None, path: Path) -> Path | None:
+    """One panel per element: measured load along the plate, smoothing, chosen point and, from
+    the world's truth, the true load curve and its maximum."""
     if not profiles:
         return None
     import matplotlib
@@ -84,6 +74,7 @@ def plot_profiles(profiles: dict[str, dict], summary: dict, world, path: Path) -
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    truth = world.truth() if world is not None else {}
     fig, axes = plt.subplots(len(profiles), 1, figsize=(8, 3.2 * len(profiles)), squeeze=False)
     for ax, (eid, prof) in zip(axes[:, 0], profiles.items()):
         x = np.asarray(prof["position"])
@@ -91,16 +82,14 @@ def plot_profiles(profiles: dict[str, dict], summary: dict, world, path: Path) -
         ax.plot(x, prof["smoothed"], color="C0", label="smoothed")
         ax.axvline(prof["best_position"], color="C0", ls="--", label=f"chosen {prof['best_position']:.3f} m")
         ax.set_ylabel("load in the grip [px]")
-        truth = summary["elements"].get(eid, {})
-        if world is not None and "true_best_position" in truth:
-            plate = world.plates[truth["plate"]]
-            clearance = plate.origin[2] - world.elements[eid].ends()[1][2]
-            xs = np.linspace(x.min(), x.max(), 400)
+        if CURVE in truth.get(eid, {}):
+            curve = truth[eid][CURVE]
+            shown = (curve["position"] >= x.min()) & (curve["position"] <= x.max())
             twin = ax.twinx()
-            twin.plot(xs, plate.beam.carried_force(xs, clearance), color="C3", lw=1, label="true R(a) [N]")
+            twin.plot(curve["position"][shown], curve["load_N"][shown], color="C3", lw=1, label="true R(a) [N]")
             twin.set_ylabel("true load as placed [N]", color="C3")
-            ax.axvline(truth["true_best_position"], color="C3", ls=":",
-                       label=f"true max {truth['true_best_position']:.3f} m")
+            ax.axvline(truth[eid]["true_best_position"], color="C3", ls=":",
+                       label=f"true max {truth[eid]['true_best_position']:.3f} m")
         ax.set_title(f"{eid}: load along plate {prof.get('plate', '')}")
         ax.set_xlabel("position along the span a [m]")
         ax.legend(loc="lower center", fontsize=7)

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from drivers.cell import Cell
 from drivers.cell_file import CellFileError, read_cell_file, resolve_cell_path
+from perception.errors import did_you_mean
 
 # kind -> "module:function" taking (path, data, CellRequest) and returning a Cell.
 BUILDERS = {
@@ -37,8 +38,10 @@ def builder_kind(path: Path, data: dict) -> str:
         perception = data.get("perception")
         if isinstance(perception, dict) and perception.get("source") == "shadow":
             return "emulated_shadow"
-    if kind not in ("sim", "real"):
-        raise CellFileError(path, "kind", f"unknown kind {kind!r}; expected 'sim' or 'real'")
+    if kind not in BUILDERS or kind == "emulated_shadow":
+        kinds = sorted(set(BUILDERS) - {"emulated_shadow"})
+        raise CellFileError(path, "kind", f"unknown kind {kind!r}",
+                            did_you_mean(kind, kinds) or f"expected one of {', '.join(kinds)}")
     return kind
 
 

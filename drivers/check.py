@@ -11,29 +11,27 @@ import time
 
 import numpy as np
 
-from drivers.hardware.camera import OpenCvCamera
 from drivers.cell_builders import builder_kind
-from drivers.cell_file import CellFileError, read_cell_file, resolve_cell_path
+from drivers.cell_file import read_cell_file, resolve_cell_path
 from drivers.clock import WallClock
+from drivers.hardware.camera import OpenCvCamera
 from drivers.hardware.gripper_modbus import FAULTS, RobotiqConfig, RobotiqGripper
-from drivers.protocols import DriverFault
 from drivers.hardware.real_cell import parse
 from drivers.hardware.ur import RECEIVE_FIELDS, UrConfig
 from drivers.hardware.ur_dashboard import DashboardError, preflight
+from drivers.protocols import DriverFault
 
 Result = tuple[str, bool, str]
 
 
 def check_cell(cell: str) -> list[Result]:
-    """One (device, ok, detail) per device of the cell file."""
+    """One (device, ok, detail) per device of the cell file; a bad cell file raises CellFileError
+    (checked whole before any device is contacted)."""
     path = resolve_cell_path(cell)
-    try:
-        data = read_cell_file(path)
-        if data["kind"] == "sim":
-            return [("cell", True, f"{path}: simulated cell, no devices to connect")]
-        spec = parse(path, data, shadow=builder_kind(path, data) == "emulated_shadow")
-    except CellFileError as exc:
-        return [("cell file", False, str(exc))]
+    data = read_cell_file(path)
+    if data["kind"] == "sim":
+        return [("cell", True, f"{path}: simulated cell, no devices to connect")]
+    spec = parse(path, data, shadow=builder_kind(path, data) == "emulated_shadow")
     clock = WallClock(0.01)
     results = [check_arm(spec["arm"]), check_gripper(spec["gripper"])]
     results += [check_camera(name, cfg, clock) for name, cfg in spec["cameras"].items()]

@@ -1,5 +1,6 @@
 """The small protocols every backend implements: Arm, Gripper, Camera, Clock, and for simulated
-cells the World around them and the perception source that reads it.
+cells the World around them, what a world needs of the arm and gripper it acts on (SceneArm,
+SceneGripper), and the perception source that reads it.
 
 Skills and the runner talk only to these. Poses are UR-style 6-vectors [x, y, z, rx, ry, rz]
 (metres, rotation vector, base frame); widths are metres between the fingertips. Commands are
@@ -93,6 +94,39 @@ class PerceptionSource(Protocol):
 
 
 @runtime_checkable
+class SceneArm(Protocol):
+    """What a simulated world needs of the arm it acts on: the simulated arm, which the world
+    integrates, or an emulated arm it only follows."""
+
+    external_wrench: np.ndarray  # force and torque the world puts on the TCP (N, N m), base frame
+
+    def pose(self) -> np.ndarray:
+        """Actual TCP pose [x, y, z, rx, ry, rz]."""
+
+    def tcp_speed(self) -> np.ndarray:
+        """Actual TCP twist [vx, vy, vz, wx, wy, wz]."""
+
+    def step(self, dt: float) -> None:
+        """Integrate the commanded motion over `dt` seconds (nothing where a controller does)."""
+
+
+@runtime_checkable
+class SceneGripper(Protocol):
+    """What a simulated world needs of the gripper whose fingertips touch it."""
+
+    object_width: float | None  # m, width of what is between the fingers (None: nothing), set by the world
+
+    def width(self) -> float:
+        """Current opening between the fingertips in metres."""
+
+    def squeeze_force(self) -> float:
+        """Normal force (N) the pads press the object between them with; 0 without contact."""
+
+    def step(self, dt: float) -> None:
+        """Integrate the finger motion over `dt` seconds (nothing where a controller does)."""
+
+
+@runtime_checkable
 class World(Protocol):
     """A simulated scene around the arm and gripper (on an emulated cell, the shadow that follows
     them): it integrates one tick, says what the fingertips touch, and knows the truth a real cell
@@ -104,8 +138,9 @@ class World(Protocol):
     def contacts(self) -> Mapping[str, Any]:
         """Per finger, the contact the FingerVision sensor model turns into a TactileState."""
 
-    def metrics(self) -> dict[str, float]:
-        """Scene measures of how the task went (tracking error, angle reached, ...)."""
+    def metrics(self) -> dict[str, Any]:
+        """Scene measures of how the task went (tracking error, angle reached, ...): numbers,
+        flags and short texts for the run summary."""
 
     def truth(self) -> dict[str, dict]:
         """Ground truth per task object (e.g. per placed element: position against the true

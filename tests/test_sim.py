@@ -1,4 +1,4 @@
-"""The simulated cell's models against closed-form and reference figures."""
+"""The simulated cell's models against closed-form and worked-out figures."""
 
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ from drivers.sim.models.plate import BeamPlate
 from drivers.sim.transforms import matrix_to_rotvec, rotvec_to_matrix
 
 
-def test_plate_reproduces_the_reference_toy_scene():
-    # shared/reference/physics.md section 4: L = 1, EI = 50, w = 100, k = 2000, P = 40 at 0.7
+def test_plate_finds_the_maximum_of_the_toy_scene():
+    # L = 1, EI = 50, w = 100, k = 2000, P = 40 at 0.7: R(a) peaks at 43.1 N, 0.568 m from the left
     plate = BeamPlate(span=1.0, EI=50.0, w=100.0, P=40.0, c=0.7, k=2000.0)
     a, r = plate.max_load(clearance=0.0)
     assert a == pytest.approx(0.568, abs=0.001) and r == pytest.approx(43.1, abs=0.05)

@@ -37,8 +37,8 @@ def synthetic_frame(index: int, size: tuple[int, int]) -> np.ndarray:
 
 def fingervision_renderer(size: tuple[int, int], seed: int = 0):
     """Frames of a FingerVision sensor at rest, from the simulator's renderer."""
-    from drivers.sim.models.synthetic_camera import SyntheticFingerVision
     from drivers.sim.models.fingervision_model import radial_marker_layout
+    from drivers.sim.models.synthetic_camera import SyntheticFingerVision
 
     camera = SyntheticFingerVision(radial_marker_layout(size), 9.0, size, seed=seed)
     return lambda index, _size: camera.render().image

@@ -22,7 +22,7 @@ from drivers.cell_builders import CellRequest
 from drivers.clock import WallClock
 from drivers.emulators.backdoor import Client
 from drivers.hardware.real_cell import closing_on_error, connect, parse
-from drivers.protocols import DriverFault
+from drivers.protocols import Arm, DriverFault, Gripper
 from drivers.sim.scenes import build_world, world_settings
 
 
@@ -49,7 +49,7 @@ def build_shadow_cell(path: Path, data: dict, request: CellRequest) -> Cell:
         doors = [Client(spec["arm"].host, emulation.arm_backdoor_port),
                  Client(spec["gripper"].host, emulation.gripper_backdoor_port)]
         closers.extend(door.close for door in doors)
-        world, _, sense = build_world(path, settings, FollowedArm(arm, clock, doors[0]),
+        world, _, sense = build_world(path, settings, FollowedArm(arm, doors[0]),
                                       FollowedGripper(gripper, doors[1], emulation.pad_stiffness), clock,
                                       request.scene, request.scene_args, request.seed)
         return Cell(spec["name"], safe, gripper, clock, sense, cameras=cameras, world=world, closers=closers)
@@ -64,12 +64,12 @@ def _ask(client: Client, line: str) -> None:
 
 
 class FollowedArm:
-    """The arm as the simulated scene sees it: pose and speed read from the emulated arm, which
-    the scene never moves (the emulator integrates the motion); the loads the scene puts on the
-    TCP go to the emulator."""
+    """The arm as the simulated scene sees it (a SceneArm): pose and speed read from the emulated
+    arm, which the scene never moves (the emulator integrates the motion); the loads the scene
+    puts on the TCP go to the emulator."""
 
-    def __init__(self, arm, clock, backdoor: Client):
-        self.arm, self.clock, self._backdoor = arm, clock, backdoor
+    def __init__(self, arm: Arm, backdoor: Client):
+        self.arm, self._backdoor = arm, backdoor
         self._wrench = np.zeros(6)
         _ask(backdoor, "external_wrench 0 0 0")
 
@@ -95,11 +95,11 @@ class FollowedArm:
 
 
 class FollowedGripper:
-    """The gripper as the simulated scene sees it: the opening from the Robotiq driver, the squeeze
-    from the opening and the pad stiffness; the width of the object between the fingers goes to
-    the gripper emulator."""
+    """The gripper as the simulated scene sees it (a SceneGripper): the opening from the Robotiq
+    driver, the squeeze from the opening and the pad stiffness; the width of the object between
+    the fingers goes to the gripper emulator."""
 
-    def __init__(self, gripper, backdoor: Client, pad_stiffness: float):
+    def __init__(self, gripper: Gripper, backdoor: Client, pad_stiffness: float):
         self.gripper, self._backdoor, self.pad_stiffness = gripper, backdoor, pad_stiffness
         self.max_width = gripper.max_width
         self._object_width: float | None = None

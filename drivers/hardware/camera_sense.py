@@ -6,20 +6,20 @@ dressed as new."""
 from __future__ import annotations
 
 import time
-from pathlib import Path
 from typing import Callable
 
 from drivers.hardware.camera import OpenCvCamera
 from drivers.protocols import Clock, DriverFault
+from perception.calibration import MarkerMap
+from perception.config import FingerVisionConfig
 from perception.state import FINGERS, TactileState
 
 
-def fingervision_sense(cameras: dict[str, OpenCvCamera], clock: Clock, preset: str = "fast",
-                       marker_maps: dict[str, str] | None = None, stale_after: float = 0.5,
-                       calibration_timeout: float = 5.0) -> Callable[[], dict[str, TactileState]]:
-    """Build the per-tick perception source; blocks (bounded) for calibration frames."""
-    from perception.calibration import MarkerMap
-    from perception.config import load_config
+def fingervision_sense(cameras: dict[str, OpenCvCamera], clock: Clock, config: FingerVisionConfig,
+                       marker_maps: dict[str, MarkerMap], stale_after: float,
+                       calibration_timeout: float) -> Callable[[], dict[str, TactileState]]:
+    """Build the per-tick perception source with the pipeline `config`: fingers with a saved
+    marker map track against it, the others calibrate now (blocking, bounded) on fresh frames."""
     from perception.fingervision import FingerVision
 
     missing = [f for f in FINGERS if f not in cameras]
@@ -27,9 +27,9 @@ def fingervision_sense(cameras: dict[str, OpenCvCamera], clock: Clock, preset: s
         raise DriverFault(f"perception needs a camera per finger; missing: {', '.join(missing)}")
     pipelines = {}
     for finger in FINGERS:
-        pipeline = FingerVision(load_config(preset), finger)
-        if marker_maps and finger in marker_maps:
-            pipeline.use_marker_map(MarkerMap.load(Path(marker_maps[finger])))
+        pipeline = FingerVision(config, finger)
+        if finger in marker_maps:
+            pipeline.use_marker_map(marker_maps[finger])
         else:
             n = pipeline.config.calibration.n_frames
             pipeline.calibrate(_grab(cameras[finger], n, calibration_timeout))

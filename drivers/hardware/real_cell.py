@@ -24,11 +24,14 @@ from drivers.hardware.camera import CameraConfig, OpenCvCamera
 from drivers.hardware.gripper_modbus import RobotiqConfig, RobotiqGripper
 from drivers.hardware.ur import UrArm, UrConfig
 from drivers.safety import SafeArm, SafetyLimits
+from perception.calibration import CalibrationError, MarkerMap
+from perception.config import ConfigError, FingerVisionConfig, load_config, preset_names
 from perception.state import FINGERS, TactileState
 
 SECTIONS = {"kind", "name", "arm", "gripper", "cameras", "perception", "safety", "emulation"}
 PERCEPTION_FIELDS = {"source", "preset", "marker_maps", "stale_after", "calibration_timeout"}
 PERCEPTION_SOURCES = ("fingervision", "none")
+PERCEPTION_DEFAULTS = {"preset": "fast", "stale_after": 0.5, "calibration_timeout": 5.0}  # times in s
 
 
 @dataclass(frozen=True)
@@ -70,10 +73,13 @@ def parse(path: Path, data: dict, shadow: bool = False) -> dict[str, Any]:
     }
 
 
-def parse_perception(path: Path, data: dict, cameras: dict, shadow: bool = False) -> dict[str, Any]:
-    """The `perception` section, with its `source` filled in."""
+def parse_perception(path: Path, data: dict, cameras: dict[str, CameraConfig], shadow: bool = False
+                     ) -> dict[str, Any]:
+    """The `perception` section, with its `source` filled in and the FingerVision pipeline's
+    `config` and marker `maps` loaded, so a wrong preset name or map file fails here, before any
+    device is touched."""
     known = PERCEPTION_FIELDS | ({"sensor", "world"} if shadow else set())
-    perception = section(path, data, "perception", known=known)
+    perception = {**PERCEPTION_DEFAULTS, **section(path, data, "perception", known=known)}
     source = perception.get("source", "fingervision" if cameras else "none")
     sources = PERCEPTION_SOURCES + (("shadow",) if shadow else ())
     if source not in sources:
@@ -81,7 +87,53 @@ def parse_perception(path: Path, data: dict, cameras: dict, shadow: bool = False
                             f"unknown source {source!r}; expected {', '.join(sources)}")
     if source == "fingervision" and set(FINGERS) - set(cameras):
         raise CellFileError(path, "cameras", f"perception.source fingervision needs cameras {', '.join(FINGERS)}")
-    return {**perception, "source": source}
+    for name in ("stale_after", "calibration_timeout"):
+        value = perception[name]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or value <= 0:
+            raise CellFileError(path, f"perception.{name}", f"must be a positive number of seconds, got {value!r}")
+    return {**perception, "source": source, "config": pipeline_config(path, perception["preset"]),
+            "maps": marker_maps(path, perception.get("marker_maps"), cameras)}
+
+
+def pipeline_config(path: Path, preset: Any) -> FingerVisionConfig:
+    """The FingerVision configuration `perception.preset` names (a shipped preset or a YAML file)."""
+    if not isinstance(preset, str):
+        raise CellFileError(path, "perception.preset", f"must be a preset name or a YAML file, got {preset!r}",
+                            f"presets: {', '.join(preset_names())}")
+    try:
+        return load_config(preset)
+    except ConfigError as exc:
+        raise CellFileError(path, "perception.preset", exc.message, exc.hint) from None
+
+
+def marker_maps(path: Path, files: Any, cameras: dict[str, CameraConfig]) -> dict[str, MarkerMap]:
+    """Per finger, the saved marker map `perception.marker_maps` names (fingers without one are
+    calibrated at start): each file must load, hold markers and match its camera's image size."""
+    if files is None:
+        return {}
+    if not isinstance(files, dict):
+        raise CellFileError(path, "perception.marker_maps", "must map fingers to marker map files",
+                            "e.g. {left: calib/left.yaml, right: calib/right.yaml}")
+    check_known(path, files, FINGERS, "perception.marker_maps.")
+    maps = {}
+    for finger, file in files.items():
+        where = f"perception.marker_maps.{finger}"
+        if not Path(str(file)).is_file():
+            raise CellFileError(path, where, f"no marker map file {file}", "paths are relative to the working directory")
+        try:
+            found = MarkerMap.load(Path(str(file)))
+        except CalibrationError as exc:
+            raise CellFileError(path, where, exc.message) from None
+        if len(found) == 0:
+            raise CellFileError(path, where, f"{file}: the marker map has no markers",
+                                "recalibrate on frames that show the markers")
+        camera = cameras.get(finger)
+        captured = (camera.width, camera.height) if camera is not None else (None, None)
+        if None not in captured and captured != tuple(found.image_size):
+            raise CellFileError(path, where, f"{file}: the map is for {found.image_size[0]}x{found.image_size[1]} "
+                                f"images, camera {finger} captures {captured[0]}x{captured[1]}")
+        maps[finger] = found
+    return maps
 
 
 def parse_emulation(path: Path, data: dict, shadow: bool, hosts: tuple[str, str]) -> Emulation:
@@ -143,8 +195,8 @@ def build_real_cell(path: Path, data: dict, request: CellRequest) -> Cell:
         if p["source"] == "fingervision":
             from drivers.hardware.camera_sense import fingervision_sense
 
-            sense = fingervision_sense(cameras, clock, p.get("preset", "fast"), p.get("marker_maps"),
-                                       p.get("stale_after", 0.5), p.get("calibration_timeout", 5.0))
+            sense = fingervision_sense(cameras, clock, p["config"], p["maps"], p["stale_after"],
+                                       p["calibration_timeout"])
         else:
             sense = no_perception(clock)
         return Cell(spec["name"], safe, gripper, clock, sense, cameras=cameras, closers=closers)

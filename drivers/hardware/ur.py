@@ -19,8 +19,13 @@ from typing import Any, Callable
 
 import numpy as np
 
+from drivers.hardware.ur_dashboard import (
+    Dashboard,
+    DashboardError,
+    controller_major,
+    preflight,
+)
 from drivers.protocols import Clock, DriverFault
-from drivers.hardware.ur_dashboard import Dashboard, DashboardError, controller_major, preflight
 
 log = logging.getLogger(__name__)
 

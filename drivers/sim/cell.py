@@ -38,7 +38,9 @@ def build_sim_cell(path: Path, data: dict, request: CellRequest) -> Cell:
     world, sensors, sense = build_world(path, world_settings(path, data), arm, gripper, clock,
                                         request.scene, request.scene_args, request.seed)
     if mode == "pixels":
-        from drivers.sim.models.synthetic_camera import pixel_level_sense  # rendered frames -> real pipeline
+        from drivers.sim.models.synthetic_camera import (
+            pixel_level_sense,  # rendered frames -> real pipeline
+        )
 
         sense = pixel_level_sense(world, sensors, clock, request.seed)
     return Cell(data.get("name", "sim"), SafeArm(arm, limits, clock), gripper, clock, sense, world=world)

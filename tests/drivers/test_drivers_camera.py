@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from drivers_testkit import next_host, wait_until
 
-from drivers.hardware.camera import CameraConfig, OpenCvCamera
 from drivers.emulators.mjpeg import MjpegServer, synthetic_frame
+from drivers.hardware.camera import CameraConfig, OpenCvCamera
 
 
 @pytest.fixture

@@ -15,8 +15,10 @@ from drivers.cell_file import CELLS_DIR, CellFileError, read_cell_file
 from drivers.check import check_cell
 from drivers.emulators.shadow import parse_shadow
 from drivers.hardware.real_cell import parse
-from drivers.safety import SafeArm
 from drivers.hardware.ur import UrArm
+from drivers.safety import SafeArm
+from perception.calibration import MarkerMap
+from perception.config import FingerVisionConfig
 from perception.state import FINGERS
 
 
@@ -71,6 +73,55 @@ def test_cell_file_errors_name_the_field(tmp_path, edit, field, message):
     assert err.value.field == field and message in err.value.message
 
 
+def _saved_map(tmp_path: Path, name: str, image_size=(320, 240), markers: int = 5) -> str:
+    path = tmp_path / name
+    MarkerMap(np.full((markers, 2), 50.0) + np.arange(markers)[:, None] * 20, np.full(markers, 8.0),
+              image_size).save(path)
+    return str(path)
+
+
+def _parse_real(tmp_path: Path, edit) -> dict:
+    """parse() of ur_robotiq.yaml after `edit`."""
+    data = yaml.safe_load((CELLS_DIR / "ur_robotiq.yaml").read_text())
+    edit(data)
+    path = tmp_path / "cell.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return parse(path, read_cell_file(path))
+
+
+def test_real_cell_perception_is_loaded_while_parsing(tmp_path):
+    left = _saved_map(tmp_path, "left.yaml")
+    spec = _parse_real(tmp_path, lambda d: d["perception"].update(preset="thesis", marker_maps={"left": left}))
+    perception = spec["perception"]
+    assert isinstance(perception["config"], FingerVisionConfig) and perception["config"].name == "thesis"
+    assert set(perception["maps"]) == {"left"} and len(perception["maps"]["left"]) == 5
+
+
+@pytest.mark.parametrize("edit, field, message", [
+    (lambda d, tmp: d["perception"].update(preset="fsat"), "perception.preset", "no perception preset 'fsat'"),
+    (lambda d, tmp: d["perception"].update(preset=3), "perception.preset", "must be a preset name"),
+    (lambda d, tmp: d["perception"].update(marker_maps={"left": str(tmp / "none.yaml")}),
+     "perception.marker_maps.left", "no marker map file"),
+    (lambda d, tmp: d["perception"].update(marker_maps={"lfet": _saved_map(tmp, "l.yaml")}),
+     "perception.marker_maps.lfet", "unknown field"),
+    (lambda d, tmp: d["perception"].update(marker_maps=[_saved_map(tmp, "l.yaml")]),
+     "perception.marker_maps", "must map fingers"),
+    (lambda d, tmp: d["perception"].update(marker_maps={"right": _saved_map(tmp, "r.yaml", markers=0)}),
+     "perception.marker_maps.right", "no markers"),
+    (lambda d, tmp: d["perception"].update(marker_maps={"right": _saved_map(tmp, "r.yaml", (640, 480))}),
+     "perception.marker_maps.right", "camera right captures 320x240"),
+    (lambda d, tmp: d["perception"].update(marker_maps={"left": str(CELLS_DIR / "sim.yaml")}),
+     "perception.marker_maps.left", "not a marker map"),
+    (lambda d, tmp: d["perception"].update(stale_after=0), "perception.stale_after", "positive"),
+    (lambda d, tmp: d["perception"].update(calibration_timeout="5 s"), "perception.calibration_timeout", "positive"),
+])
+def test_real_cell_perception_errors_name_the_field(tmp_path, edit, field, message):
+    with pytest.raises(CellFileError) as err:
+        _parse_real(tmp_path, lambda d: edit(d, tmp_path))
+    assert err.value.field == field and message in err.value.message
+    assert err.value.line is not None
+
+
 def test_emulated_cell_builds_runs_perception_and_closes(emulated_cell):
     cell = load_cell(str(emulated_cell), 30.0, "assembly", {})
     try:
@@ -105,12 +156,12 @@ def test_check_reports_what_is_unreachable(tmp_path):
     assert "connection refused" in results[0][2] and "cannot reach Robotiq" in results[1][2]
 
 
-def test_check_of_a_bad_cell_file_is_one_failed_line(tmp_path):
+def test_check_of_a_bad_cell_file_is_a_located_error_before_any_device(tmp_path):
     path = tmp_path / "bad.yaml"
     path.write_text("kind: real\narm: {}\n")
-    [(name, ok, detail)] = check_cell(str(path))
-    assert name == "cell file" and not ok
-    assert detail == f"{path}: safety: missing section"
+    with pytest.raises(CellFileError) as err:
+        check_cell(str(path))
+    assert str(err.value) == f"{path}: safety: missing section" and err.value.exit_code == 2
 
 
 def test_drivers_benchmark_writes_table_and_chart(tmp_path):

@@ -11,9 +11,9 @@ import rtde_control
 import rtde_receive
 from drivers_testkit import next_host, wait_until
 
+from drivers.hardware.ur import UrArm, UrConfig
 from drivers.protocols import DriverFault
 from drivers.safety import SafeArm, SafetyLimits
-from drivers.hardware.ur import UrArm, UrConfig
 
 HOME = np.array([0.0, -0.4, 0.4, np.pi, 0.0, 0.0])
 WATCHDOG_HZ = 4.0  # controller watchdog: 250 ms without a tick stops the program (slack for busy CI)

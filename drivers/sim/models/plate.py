@@ -1,11 +1,12 @@
 """Bendable plate as a simply supported beam strip (Euler-Bernoulli, closed form).
 
 Uniform load w plus a point load P at c moves the deflection peak off-centre. A vertical element
-whose top leaves clearance g0 under the unloaded plate, with series stiffness k, carries
+at a (b = L - a from the right support) whose top leaves clearance g0 under the unloaded plate
+carries the force R that makes the deflections compatible: the plate comes down y_load(a) under
+its loads and goes back up R a^2 b^2 / (3 E I L) under R, while the element, grip and gel pads
+(series stiffness k) give R / k, so y_load(a) - R a^2 b^2 / (3 E I L) = g0 + R / k, and
 
-    R(a) = max(0, y_load(a) - g0) / (a^2 b^2 / (3 E I L) + 1/k),    b = L - a
-
-(compatibility of deflections; see shared/reference/physics.md section 2).
+    R(a) = max(0, y_load(a) - g0) / (a^2 b^2 / (3 E I L) + 1/k)
 """
 
 from __future__ import annotations

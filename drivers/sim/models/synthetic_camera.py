@@ -17,6 +17,9 @@ from typing import Callable, Mapping
 import cv2
 import numpy as np
 
+from drivers.clock import SimClock
+from drivers.protocols import World
+from drivers.sim.models.fingervision_model import SensorModel
 from perception.state import FINGERS, ObjectInfo, TactileState
 
 MARKER_GREY = 18.0  # marker core brightness before lighting
@@ -245,14 +248,16 @@ class SyntheticFingerVision:
         return inside & rim & (hidden[iy, ix].max(axis=1) < 0.1)
 
 
-def pixel_level_sense(world, sensors: Mapping[str, object], clock, seed: int,
+def pixel_level_sense(world: World, sensors: Mapping[str, SensorModel], clock: SimClock, seed: int,
                       preset: str = "fast") -> Callable[[], dict[str, TactileState]]:
     """Perception source of the simulated cell that renders each finger's frame and runs the real
     FingerVision pipeline on it (calibrated at start on frames with no contact)."""
-    from perception.fingervision import FingerVision  # the real pipeline, as on the robot
     from perception.config import load_config
+    from perception.fingervision import (
+        FingerVision,  # the real pipeline, as on the robot
+    )
 
-    fps = 1.0 / getattr(clock, "period", 1.0 / 30.0)
+    fps = 1.0 / clock.period
     cameras, pipelines = {}, {}
     for i, finger in enumerate(FINGERS):
         sensor = sensors[finger]

@@ -8,14 +8,14 @@ from pathlib import Path
 from typing import Callable
 
 from drivers.cell_file import CellFileError, section
-from drivers.protocols import Clock, PerceptionSource, World
+from drivers.protocols import Clock, PerceptionSource, SceneArm, SceneGripper, World
 from drivers.sim.models.fingervision_model import SensorModel
 from drivers.sim.scenes import assembly, followme, handover, hold, press, stick, stir
 from perception.errors import did_you_mean
 from perception.state import FINGERS
 
 # name -> builder(arm, gripper, scene_args, world settings, seed) -> World
-SCENES: dict[str, Callable[..., World]] = {
+SCENES: dict[str, Callable[[SceneArm, SceneGripper, dict, dict, int], World]] = {
     "assembly": assembly.build,
     "hold": hold.build,
     "followme": followme.build,
@@ -37,8 +37,8 @@ def world_settings(path: Path, data: dict, where: str = "") -> tuple[dict, dict]
             section(path, data, "world", known=WORLD_FIELDS, where=where))
 
 
-def build_world(path: Path, settings: tuple[dict, dict], arm, gripper, clock: Clock, scene: str,
-                scene_args: dict, seed: int) -> tuple[World, dict[str, SensorModel], PerceptionSource]:
+def build_world(path: Path, settings: tuple[dict, dict], arm: SceneArm, gripper: SceneGripper, clock: Clock,
+                scene: str, scene_args: dict, seed: int) -> tuple[World, dict[str, SensorModel], PerceptionSource]:
     """The scene a tree needs around `arm` and `gripper`, with the (sensor, world) `settings`:
     returns the world, its two FingerVision sensor models and the signal-level perception source
     reading them."""

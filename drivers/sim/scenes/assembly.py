@@ -10,17 +10,20 @@ the series compliance k), so the fingers feel it as shear.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
-from drivers.sim.devices.arm import KinematicArm
+from drivers.protocols import SceneArm, SceneGripper
 from drivers.sim.models.fingervision_model import FingerContact
-from drivers.sim.devices.gripper import SimGripper
 from drivers.sim.models.plate import BeamPlate
+from drivers.sim.scenes.base import Scene
+from drivers.sim.scenes.scene_file import plate_loads, scene_file_of
 from drivers.sim.transforms import homogeneous, pose_of, rigid_inverse, rotvec_to_matrix
 from perception.state import ObjectInfo
 
 GRAVITY = 9.81
+CURVE_POINTS = 2001  # samples of the true load curve along a plate's span
 
 
 @dataclass
@@ -89,9 +92,9 @@ class SceneConfig:
 
 
 @dataclass
-class AssemblyScene:
-    arm: KinematicArm
-    gripper: SimGripper
+class AssemblyScene(Scene):
+    arm: SceneArm
+    gripper: SceneGripper
     elements: dict[str, Element]
     plates: dict[str, Plate]
     config: SceneConfig = field(default_factory=SceneConfig)
@@ -259,16 +262,33 @@ class AssemblyScene:
                                         self._slip)
         return out
 
-    def truth(self) -> dict:
-        """Ground truth for run summaries: element poses, states and true loads."""
-        return {
-            e.id: {"pose": e.pose.tolist(), "state": e.state, "load": self.plate_load(e)}
-            for e in self.elements.values()
-        }
+    def truth(self) -> dict[str, dict]:
+        """Per element standing under a plate: where it props the plate against the true
+        maximum-load position, the load it carries against that maximum, the force regret
+        (R* - R) / R*, and the true load curve R(a) along the span at its clearance."""
+        out = {}
+        for e in self.elements.values():
+            if e.state != "standing":
+                continue
+            top = e.ends()[1]
+            plate = self.plate_above(top)
+            if plate is None:
+                continue
+            clearance = plate.origin[2] - top[2]
+            a = plate.position_along(top)
+            a_best, r_best = plate.beam.max_load(clearance)
+            r = float(plate.beam.carried_force(a, clearance))
+            along = np.linspace(0.0, plate.beam.span, CURVE_POINTS)
+            out[e.id] = {"plate": plate.id, "position": a, "true_best_position": a_best, "load_N": r,
+                         "true_max_load_N": r_best, "regret": (r_best - r) / r_best if r_best > 0 else 0.0,
+                         "true_load_curve": {"position": along,
+                                             "load_N": plate.beam.carried_force(along, clearance)}}
+        return out
 
 
-def build(arm, gripper, args: dict, world: dict, seed: int) -> AssemblyScene:
-    """Elements at their pick poses (with seeded placement error) and the plates to prop."""
+def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> AssemblyScene:
+    """Elements at their pick poses (with seeded placement error) and the plates to prop, their
+    loads from the scene file next to the design (`args["design_file"]`), if there is one."""
     rng = np.random.default_rng(seed + 1)
     elements = {}
     for spec in args.get("elements", []):
@@ -278,9 +298,12 @@ def build(arm, gripper, args: dict, world: dict, seed: int) -> AssemblyScene:
         true_length = length + rng.uniform(-0.003, 0.003)
         elements[spec["id"]] = Element(spec["id"], true_length, width, depth,
                                        spec.get("mass", 0.4), pose)
+    design_file = args.get("design_file")
+    spans = {spec["id"]: spec["span"] for spec in args.get("plates", [])}
+    loads = plate_loads(scene_file_of(Path(design_file)), spans) if design_file else {}
     plates = {}
     for spec in args.get("plates", []):
-        beam = BeamPlate(span=spec["span"], **spec.get("sim_load", {}))
+        beam = BeamPlate(span=spec["span"], **loads.get(spec["id"], {}))
         plates[spec["id"]] = Plate(spec["id"], np.array(spec["origin"], float),
                                    spec.get("width", 0.3), beam)
     config = SceneConfig(seed=seed, **world)

@@ -13,9 +13,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from drivers.sim.devices.arm import KinematicArm
-from drivers.sim.scenes.grip import Grip, empty_contacts, pad_contacts, pad_view, slip_signal, step_hand, tool_rotation
-from drivers.sim.devices.gripper import SimGripper
+from drivers.protocols import SceneArm, SceneGripper
+from drivers.sim.scenes.base import Scene
+from drivers.sim.scenes.grip import (
+    Grip,
+    empty_contacts,
+    pad_contacts,
+    pad_view,
+    slip_signal,
+    step_hand,
+    tool_rotation,
+)
 
 AXES = "xyz"
 
@@ -27,9 +35,9 @@ def min_jerk(s: float) -> float:
 
 
 @dataclass
-class FollowMeScene:
-    arm: KinematicArm
-    gripper: SimGripper
+class FollowMeScene(Scene):
+    arm: SceneArm
+    gripper: SceneGripper
     axis: str = "x"
     direction: str = "pull"
     distance: float = 0.12  # m the person leads the block
@@ -46,6 +54,7 @@ class FollowMeScene:
     grip: Grip = field(default_factory=Grip)
 
     def __post_init__(self):
+        self._dt = 0.0  # s, length of the last tick (slip is motion per camera frame)
         if self.axis not in AXES or self.direction not in ("pull", "push"):
             raise ValueError(f"followme needs axis in x/y/z and direction pull/push, got "
                              f"{self.axis!r}, {self.direction!r}")
@@ -71,6 +80,7 @@ class FollowMeScene:
         return self._tcp0 + self._lead * min_jerk((self._t - self._grasped_at - self.start_delay) / self.move_time)
 
     def step(self, dt: float) -> None:
+        self._dt = dt
         step_hand(self.arm, self.gripper, None if self.lost else self.width, dt)
         self._t += dt
         squeeze = self.gripper.squeeze_force()
@@ -117,7 +127,7 @@ class FollowMeScene:
             return self._open_contacts()
         centroid = self._offset / (2 * self.view_half) + self._rng.normal(0.0, self.vision_noise, 2)
         views = (pad_view(-1.0, self.area, centroid), pad_view(1.0, self.area, centroid))
-        slip = slip_signal(self._seen_speed, self.area, self.arm.clock.period)
+        slip = slip_signal(self._seen_speed, self.area, self._dt)
         return pad_contacts(self.normals(), self._force, 0.0, views, slip)
 
     def _open_contacts(self):
@@ -129,7 +139,7 @@ class FollowMeScene:
         if not self._errors:
             return {"person led the block": False}
         v = np.array(self._velocities)
-        dt = self.arm.clock.period
+        dt = self._dt
         jerk = np.diff(v, n=2, axis=0) / dt**2 if len(v) > 2 else np.zeros((1, 3))
         return {"tracking error rms (mm)": round(float(np.sqrt(np.mean(np.square(self._errors)))) * 1000, 2),
                 "tracking error final (mm)": round(self._errors[-1] * 1000, 2),
@@ -138,7 +148,7 @@ class FollowMeScene:
                 "block lost": self.lost}
 
 
-def build(arm, gripper, args: dict, world: dict, seed: int) -> FollowMeScene:
+def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> FollowMeScene:
     """Scene args: axis (x|y|z, tool axes), direction (pull|push), distance (m), move_time (s)."""
     return FollowMeScene(arm, gripper, axis=args.get("axis", "x"), direction=args.get("direction", "pull"),
                          distance=args.get("distance", 0.12), move_time=args.get("move_time", 4.0),

@@ -2,7 +2,7 @@
 Coulomb grip with an elastic gel, sliding once the load beats friction, and the per-finger
 contacts and camera views the sensor model turns into TactileStates.
 
-Frames as in assembly_scene: the gripper closes along tool y (right finger at +y); each finger's
+Frames as in the assembly scene: the gripper closes along tool y (right finger at +y); each finger's
 image x runs along tool x (mirrored on the left finger) and image y along tool z. A torque about
 tool y therefore turns the two images in opposite senses.
 """
@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from drivers.protocols import SceneArm, SceneGripper
 from drivers.sim.models.fingervision_model import FingerContact
 from drivers.sim.transforms import rotvec_to_matrix
 from perception.state import ObjectInfo
@@ -21,12 +22,12 @@ SIDES = (("left", -1.0), ("right", 1.0))
 SLIP_TRAVEL = 0.002  # m per frame at which a moving object lights its whole visible area
 
 
-def tool_rotation(arm) -> np.ndarray:
+def tool_rotation(arm: SceneArm) -> np.ndarray:
     """3x3 rotation of the TCP; column i is tool axis i in the base frame."""
     return rotvec_to_matrix(arm.pose()[3:])
 
 
-def step_hand(arm, gripper, object_width: float | None, dt: float) -> float:
+def step_hand(arm: SceneArm, gripper: SceneGripper, object_width: float | None, dt: float) -> float:
     """Integrate arm and gripper for one tick with an object `object_width` wide (None: nothing)
     between the pads; returns the squeeze the gels put on it (N)."""
     arm.step(dt)
@@ -35,7 +36,7 @@ def step_hand(arm, gripper, object_width: float | None, dt: float) -> float:
     return gripper.squeeze_force()
 
 
-def picked_up(arm, start, squeeze: float) -> bool:
+def picked_up(arm: SceneArm, start: np.ndarray, squeeze: float) -> bool:
     """A squeezed object counts as held once the hand has carried it 2 mm from `start`."""
     return squeeze > 0.0 and float(np.linalg.norm(arm.pose()[:3] - start)) > 0.002
 

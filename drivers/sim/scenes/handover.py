@@ -11,18 +11,26 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from drivers.sim.devices.arm import KinematicArm
+from drivers.protocols import SceneArm, SceneGripper
 from drivers.sim.models.fingervision_model import FingerContact
-from drivers.sim.scenes.grip import Grip, empty_contacts, pad_contacts, pad_view, slip_signal, step_hand, tool_rotation
-from drivers.sim.devices.gripper import SimGripper
+from drivers.sim.scenes.base import Scene
+from drivers.sim.scenes.grip import (
+    Grip,
+    empty_contacts,
+    pad_contacts,
+    pad_view,
+    slip_signal,
+    step_hand,
+    tool_rotation,
+)
 
 GRAVITY = 9.81
 
 
 @dataclass
-class HandoverScene:
-    arm: KinematicArm
-    gripper: SimGripper
+class HandoverScene(Scene):
+    arm: SceneArm
+    gripper: SceneGripper
     mass: float = 0.3  # kg
     width: float = 0.05  # m across the fingers
     arrive: float = 1.0  # s until the bottle is between the fingers
@@ -39,6 +47,7 @@ class HandoverScene:
     grip: Grip = field(default_factory=Grip)
 
     def __post_init__(self):
+        self._dt = 0.0  # s, length of the last tick (slip is motion per camera frame)
         self.phase = "approach"  # approach, offer, robot, taking, taken, dropped
         self._t = 0.0
         self._since = 0.0  # time the current phase started
@@ -52,6 +61,7 @@ class HandoverScene:
         return self.phase in ("offer", "robot", "taking")
 
     def step(self, dt: float) -> None:
+        self._dt = dt
         step_hand(self.arm, self.gripper, self.width if self._between() else None, dt)
         self._t += dt
         squeeze = self.gripper.squeeze_force()
@@ -78,7 +88,7 @@ class HandoverScene:
             return empty_contacts()
         squeeze = self.gripper.squeeze_force()
         views = (pad_view(-1.0, self.area, (0.0, 0.0)), pad_view(1.0, self.area, (0.0, 0.0)))
-        dt = self.arm.clock.period
+        dt = self._dt
         if self.phase == "offer":
             # The person drags the right pad's gel as they jiggle the bottle against it.
             w = 2 * np.pi * self.jiggle_hz
@@ -97,7 +107,7 @@ class HandoverScene:
                 "grip force (N)": round(self.gripper.squeeze_force(), 2)}
 
 
-def build(arm, gripper, args: dict, world: dict, seed: int) -> HandoverScene:
+def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> HandoverScene:
     """Scene args: mass (kg), give_after (s; negative: the person never takes it back)."""
     return HandoverScene(arm, gripper, mass=args.get("mass", 0.3), give_after=args.get("give_after", 3.0),
                          grip=Grip(friction=world.get("friction", 0.8)))

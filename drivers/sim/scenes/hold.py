@@ -8,17 +8,25 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from drivers.sim.devices.arm import KinematicArm
-from drivers.sim.scenes.grip import Grip, empty_contacts, pad_contacts, pad_view, slip_signal, step_hand, tool_rotation
-from drivers.sim.devices.gripper import SimGripper
+from drivers.protocols import SceneArm, SceneGripper
+from drivers.sim.scenes.base import Scene
+from drivers.sim.scenes.grip import (
+    Grip,
+    empty_contacts,
+    pad_contacts,
+    pad_view,
+    slip_signal,
+    step_hand,
+    tool_rotation,
+)
 
 GRAVITY = 9.81
 
 
 @dataclass
-class HoldScene:
-    arm: KinematicArm
-    gripper: SimGripper
+class HoldScene(Scene):
+    arm: SceneArm
+    gripper: SceneGripper
     mass: float = 0.5  # kg, the empty box
     width: float = 0.04  # m across the fingers
     extra_load: float = 15.0  # N added once lifted
@@ -29,6 +37,7 @@ class HoldScene:
     grip: Grip = field(default_factory=Grip)
 
     def __post_init__(self):
+        self._dt = 0.0  # s, length of the last tick (slip is motion per camera frame)
         self._start = self.arm.pose()[:3]
         self._lifted_at: float | None = None
         self._t = 0.0
@@ -42,6 +51,7 @@ class HoldScene:
         return self.mass * GRAVITY + ramp * self.extra_load
 
     def step(self, dt: float) -> None:
+        self._dt = dt
         step_hand(self.arm, self.gripper, None if self.dropped else self.width, dt)
         self._t += dt
         if self.dropped:
@@ -60,7 +70,7 @@ class HoldScene:
         squeeze = self.gripper.squeeze_force()
         offset = self.grip.offset(self._load[[0, 2]]) / (2 * self.view_half)
         view = {s: pad_view(s, 0.3, offset) for s in (-1.0, 1.0)}
-        slip = slip_signal(self.grip.speed, 0.3, self.arm.clock.period)
+        slip = slip_signal(self.grip.speed, 0.3, self._dt)
         return pad_contacts((squeeze, squeeze), self._load, 0.0, (view[-1.0], view[1.0]), slip)
 
     def metrics(self) -> dict:
@@ -70,7 +80,7 @@ class HoldScene:
                 "grip force (N)": round(self.gripper.squeeze_force(), 2)}
 
 
-def build(arm, gripper, args: dict, world: dict, seed: int) -> HoldScene:
+def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> HoldScene:
     """Scene args: mass (kg), extra_load (N)."""
     return HoldScene(arm, gripper, mass=args.get("mass", 0.5), extra_load=args.get("extra_load", 15.0),
                      grip=Grip(friction=world.get("friction", 0.8)))

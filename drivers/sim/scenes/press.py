@@ -15,9 +15,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from drivers.sim.devices.arm import KinematicArm
-from drivers.sim.scenes.grip import Grip, pad_contacts, pad_view, picked_up, slip_signal, step_hand, tool_rotation
-from drivers.sim.devices.gripper import SimGripper
+from drivers.protocols import SceneArm, SceneGripper
+from drivers.sim.scenes.base import Scene
+from drivers.sim.scenes.grip import (
+    Grip,
+    pad_contacts,
+    pad_view,
+    picked_up,
+    slip_signal,
+    step_hand,
+    tool_rotation,
+)
 
 GRAVITY = 9.81
 
@@ -32,9 +40,9 @@ def mindlin_shear(load: float, capacity: float) -> float:
 
 
 @dataclass
-class PressScene:
-    arm: KinematicArm
-    gripper: SimGripper
+class PressScene(Scene):
+    arm: SceneArm
+    gripper: SceneGripper
     mass: float = 0.05  # kg
     width: float = 0.02  # m across the fingers
     length: float = 0.1  # m of stick below the grasp
@@ -46,6 +54,7 @@ class PressScene:
     grip: Grip = field(default_factory=Grip)
 
     def __post_init__(self):
+        self._dt = 0.0  # s, length of the last tick (slip is motion per camera frame)
         self._rng = np.random.default_rng(self.seed)
         start = self.arm.pose()
         self._start = start[:3]
@@ -59,6 +68,7 @@ class PressScene:
         return self.arm.pose()[:3] + tool_rotation(self.arm)[:, 2] * (self.length + self.grip.slid[1])
 
     def step(self, dt: float) -> None:
+        self._dt = dt
         squeeze = step_hand(self.arm, self.gripper, self.width, dt)
         if not self.held:
             self.held = picked_up(self.arm, self._start, squeeze)
@@ -73,7 +83,7 @@ class PressScene:
         capacity = self.grip.capacity(2 * squeeze)
         shown = np.array([mindlin_shear(self._load[0], capacity), self._load[1],
                           mindlin_shear(self._load[2], capacity)])
-        slip = slip_signal(self.grip.speed, self.area, self.arm.clock.period)
+        slip = slip_signal(self.grip.speed, self.area, self._dt)
         return pad_contacts((squeeze, squeeze), shown, 0.0, views, slip)
 
     def labels(self) -> dict:
@@ -89,7 +99,7 @@ class PressScene:
                 "stick slid in the grip (mm)": round(float(abs(self.grip.slid[1])) * 1000, 2)}
 
 
-def build(arm, gripper, args: dict, world: dict, seed: int) -> PressScene:
+def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> PressScene:
     """Scene args: mass (kg), contact_stiffness (N/m), scale_noise (N)."""
     return PressScene(arm, gripper, mass=args.get("mass", 0.05),
                       contact_stiffness=args.get("contact_stiffness", 4000.0),

@@ -13,12 +13,20 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
-from drivers.sim.devices.arm import KinematicArm
-from drivers.sim.scenes.grip import empty_contacts, pad_contacts, pad_view, slip_signal, step_hand, tool_rotation
-from drivers.sim.devices.gripper import SimGripper
+from drivers.protocols import SceneArm, SceneGripper
+from drivers.sim.scenes.base import Scene
+from drivers.sim.scenes.grip import (
+    empty_contacts,
+    pad_contacts,
+    pad_view,
+    slip_signal,
+    step_hand,
+    tool_rotation,
+)
 
 GRAVITY = 9.81
 
@@ -30,9 +38,9 @@ PRESETS = {
 
 
 @dataclass
-class StickScene:
-    arm: KinematicArm
-    gripper: SimGripper
+class StickScene(Scene):
+    arm: SceneArm
+    gripper: SceneGripper
     mass: float = 0.2  # kg
     com: float = 0.06  # m from the grasp to the centre of mass, along the stick
     width: float = 0.02  # m across the fingers
@@ -44,6 +52,7 @@ class StickScene:
     view_half: float = 0.015  # m, half the camera window
 
     def __post_init__(self):
+        self._dt = 0.0  # s, length of the last tick (slip is motion per camera frame)
         self.angle = 0.0  # rad, stick in the tool x-z plane, from tool x towards tool z
         self._start_angle = 0.0
         self._rate = 0.0  # rad/s
@@ -64,6 +73,7 @@ class StickScene:
         return float(torque @ rot[:, 1])
 
     def step(self, dt: float) -> None:
+        self._dt = dt
         squeeze = step_hand(self.arm, self.gripper, None if self.dropped else self.width, dt)
         self._rate = 0.0
         if self.dropped:
@@ -90,7 +100,7 @@ class StickScene:
         if not self.lifted:
             return pad_contacts((squeeze, squeeze), np.zeros(3), 0.0, views)
         load = tool_rotation(self.arm).T @ np.array([0.0, 0.0, -self.mass * GRAVITY])
-        slip = slip_signal(self._rate * self.view_half, self.area, self.arm.clock.period)
+        slip = slip_signal(self._rate * self.view_half, self.area, self._dt)
         return pad_contacts((squeeze, squeeze), load, self.gravity_torque(), views, slip)
 
     def metrics(self) -> dict:
@@ -101,9 +111,9 @@ class StickScene:
                 "stick dropped": self.dropped}
 
 
-def builder(preset: str):
+def builder(preset: str) -> Callable[..., StickScene]:
     """A scene builder for one of PRESETS; scene args `mass` and `com` override it."""
-    def build(arm, gripper, args: dict, world: dict, seed: int) -> StickScene:
+    def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> StickScene:
         spec = {**PRESETS[preset], **{k: args[k] for k in ("mass", "com") if k in args}}
         return StickScene(arm, gripper, friction=world.get("friction", 0.8), **spec)
     return build

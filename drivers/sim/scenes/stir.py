@@ -14,9 +14,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from drivers.sim.devices.arm import KinematicArm
-from drivers.sim.scenes.grip import pad_contacts, pad_view, picked_up, slip_signal, step_hand, tool_rotation
-from drivers.sim.devices.gripper import SimGripper
+from drivers.protocols import SceneArm, SceneGripper
+from drivers.sim.scenes.base import Scene
+from drivers.sim.scenes.grip import (
+    pad_contacts,
+    pad_view,
+    picked_up,
+    slip_signal,
+    step_hand,
+    tool_rotation,
+)
 
 
 @dataclass(frozen=True)
@@ -43,9 +50,9 @@ STIR_SPEED = 0.03  # m/s at which texture reaches its full strength
 
 
 @dataclass
-class StirScene:
-    arm: KinematicArm
-    gripper: SimGripper
+class StirScene(Scene):
+    arm: SceneArm
+    gripper: SceneGripper
     bowls: dict = field(default_factory=lambda: dict(BOWLS))
     bowl_radius: float = 0.07  # m
     surface_z: float = 0.25  # m, height of the substances' surface
@@ -61,6 +68,7 @@ class StirScene:
     seed: int = 0
 
     def __post_init__(self):
+        self._dt = 0.0  # s, length of the last tick (slip is motion per camera frame)
         self._rng = np.random.default_rng(self.seed)
         self._start = self.arm.pose()[:3]
         self.held = False
@@ -86,6 +94,7 @@ class StirScene:
         return self.arm.pose()[:3] + tool_rotation(self.arm)[:, 2] * self.length
 
     def step(self, dt: float) -> None:
+        self._dt = dt
         squeeze = step_hand(self.arm, self.gripper, self.width, dt)
         if not self.held:
             self.held = picked_up(self.arm, self._start, squeeze)
@@ -133,7 +142,7 @@ class StirScene:
         seen_angle = self.angle + self._torque / self.twist_stiffness
         offset = self._load[[0, 2]] / self.shear_stiffness / (2 * self.view_half)
         views = (pad_view(-1.0, self.area, offset, seen_angle), pad_view(1.0, self.area, offset, seen_angle))
-        slip = slip_signal(self._turn_rate * self.view_half, self.area, self.arm.clock.period)
+        slip = slip_signal(self._turn_rate * self.view_half, self.area, self._dt)
         shift = np.clip(self._tilt / (2 * self.view_half), -0.4, 0.4) * IMAGE_SIZE[1]
         centre = np.array([IMAGE_SIZE[0] / 2.0, IMAGE_SIZE[1] / 2.0 + round(shift)])  # whole pixels: cached
         return pad_contacts((squeeze - 0.5 * self._load[1], squeeze + 0.5 * self._load[1]), self._load,
@@ -148,7 +157,7 @@ class StirScene:
                 "stick turned in the fingers (deg)": round(float(np.degrees(abs(self.angle))), 2)}
 
 
-def build(arm, gripper, args: dict, world: dict, seed: int) -> StirScene:
+def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> StirScene:
     """Scene args: surface_z (m), bowls {substance: [x, y]}."""
     return StirScene(arm, gripper, bowls=args.get("bowls", dict(BOWLS)), surface_z=args.get("surface_z", 0.25),
                      friction=world.get("friction", 0.8), seed=seed)

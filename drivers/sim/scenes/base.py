@@ -1,0 +1,19 @@
+"""The defaults every simulated scene shares: a scene implements the World protocol, and most
+have no measures or ground truth beyond what they override."""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+class Scene:
+    """Base of the simulated scenes: empty `metrics` and `truth`; subclasses add `step` and
+    `contacts` (and override the others where they know more)."""
+
+    def metrics(self) -> dict[str, Any]:
+        """Scene measures of how the task went; none by default."""
+        return {}
+
+    def truth(self) -> dict[str, dict]:
+        """Ground truth per task object for the run report; none by default."""
+        return {}
