@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-from perception.errors import FvtreeError, FvtreeErrors, did_you_mean
-
-__all__ = ["TreeError", "TreeErrors", "did_you_mean"]
+from perception.errors import FvtreeError, FvtreeErrors
 
 
 class TreeError(FvtreeError):

@@ -20,9 +20,9 @@ import yaml
 
 from perception.config import FingerVisionConfig
 from perception.detect import make_detector, marker_mask
+from perception.errors import FvtreeError
 from perception.frames import FrameError, as_bgr
 from perception.marker_tracking import make_tracker
-from perception.errors import FvtreeError
 
 FORMAT_KEY = "fingervision_marker_map"
 FORMAT_VERSION = 1

@@ -17,14 +17,14 @@ import numpy as np
 from perception.calibration import MarkerMap, calibrate_markers
 from perception.config import FingerVisionConfig, load_config
 from perception.detect import make_detector
+from perception.errors import FvtreeError
 from perception.frames import FrameError, ImageQuality, as_bgr
 from perception.kalman import MarkerKalman
+from perception.marker_tracking import make_tracker
 from perception.proximity import ProximityVision
 from perception.slip import make_motion, object_slip
 from perception.state import FINGERS, MarkerField, ObjectInfo, TactileState
-from perception.marker_tracking import make_tracker
 from perception.wrench import wrench
-from perception.errors import FvtreeError
 
 
 class NotCalibratedError(FvtreeError, RuntimeError):

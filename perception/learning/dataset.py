@@ -19,10 +19,15 @@ from pathlib import Path
 
 import numpy as np
 
+from perception.errors import FvtreeError
 from perception.learning.features import check_spec
 
 FORMAT = "fvtree-recording"
 VERSION = 1
+
+
+class RecordingError(FvtreeError, ValueError):
+    """A file is not a recording of this format and version."""
 
 
 @dataclass
@@ -60,10 +65,11 @@ class Recording:
             data = np.load(path, allow_pickle=False)
             header = json.loads(str(data["header"]))
         except (OSError, ValueError, KeyError) as exc:
-            raise ValueError(f"{path}: not an fvtree recording ({exc})") from None
+            raise RecordingError(f"not an fvtree recording ({exc})", str(path)) from None
         if header.get("format") != FORMAT or header.get("version") != VERSION:
-            raise ValueError(f"{path}: format {header.get('format')!r} version {header.get('version')!r}; "
-                             f"expected {FORMAT!r} version {VERSION}")
+            raise RecordingError(f"format {header.get('format')!r} version {header.get('version')!r}; "
+                                 f"expected {FORMAT!r} version {VERSION}", str(path),
+                                 hint="re-record it with this version's fvtree record")
         check_spec(header.get("feature_spec", {}), f"recording {path}")
         labels = {k[len("label_"):]: data[k] for k in data.files if k.startswith("label_")}
         return cls(header, data["t"], data["run"], data["segment"], data["features"].astype(float), labels)

@@ -14,8 +14,8 @@ from typing import Any
 
 import joblib
 
-from perception.learning.features import check_spec, feature_spec
 from perception.errors import FvtreeError
+from perception.learning.features import check_spec, feature_spec
 
 FORMAT = "fvtree-model"
 VERSION = 1

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drivers.sim.models.synthetic_camera import Appearance, SyntheticFingerVision
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
+from drivers.sim.models.synthetic_camera import Appearance, SyntheticFingerVision
 from perception.config import load_config
 from perception.fingervision import FingerVision
 

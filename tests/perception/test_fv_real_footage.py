@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 from conftest import REAL_CLIP
 
-from perception.frames import read_clip
 from perception.config import load_config
 from perception.fingervision import FingerVision
+from perception.frames import read_clip
 
 pytestmark = pytest.mark.skipif(not REAL_CLIP.is_file(),
                                 reason=f"real footage not found at {REAL_CLIP} (../shared/data/fv_demo)")

@@ -5,8 +5,12 @@ import numpy as np
 import pytest
 
 from drivers.clock import SimClock
-from drivers.sim.models.synthetic_camera import Appearance, SyntheticFingerVision, pixel_level_sense
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
+from drivers.sim.models.synthetic_camera import (
+    Appearance,
+    SyntheticFingerVision,
+    pixel_level_sense,
+)
 from perception.state import FINGERS, ObjectInfo
 
 
