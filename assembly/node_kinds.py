@@ -258,19 +258,18 @@ def _memory_label(spec: NodeSpec) -> str:
     return f"[{spec.kind}, memory={str(spec.args['memory']).lower()}]"
 
 
+def _composite_kind(cls: type, until: str) -> NodeKind:
+    """The node kind of a sequence or a selector (`cls`), whose memory is always explicit."""
+    return NodeKind(
+        doc=f"ticks the children in order until one {until}; `memory: true` resumes at the running one",
+        fields={"memory": BOOLEAN, "children": CHILDREN}, required=frozenset({"memory", "children"}),
+        check=_composite, label=_memory_label,
+        build=lambda spec, kids: cls(name=spec.name, memory=spec.args["memory"], children=kids))
+
+
 NODE_KINDS: dict[str, NodeKind] = {
-    "sequence": NodeKind(
-        doc="ticks the children in order until one does not succeed; `memory: true` resumes at the running one",
-        fields={"memory": BOOLEAN, "children": CHILDREN}, required=frozenset({"memory", "children"}),
-        check=_composite, label=_memory_label,
-        build=lambda spec, kids: py_trees.composites.Sequence(
-            name=spec.name, memory=spec.args["memory"], children=kids)),
-    "selector": NodeKind(
-        doc="ticks the children in order until one does not fail; `memory: true` resumes at the running one",
-        fields={"memory": BOOLEAN, "children": CHILDREN}, required=frozenset({"memory", "children"}),
-        check=_composite, label=_memory_label,
-        build=lambda spec, kids: py_trees.composites.Selector(
-            name=spec.name, memory=spec.args["memory"], children=kids)),
+    "sequence": _composite_kind(py_trees.composites.Sequence, "does not succeed"),
+    "selector": _composite_kind(py_trees.composites.Selector, "does not fail"),
     "parallel": NodeKind(
         doc="ticks every child; succeeds on all, one, or the selected children",
         fields={"policy": {"enum": list(POLICIES)}, "children": CHILDREN, "synchronise": BOOLEAN,

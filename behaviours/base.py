@@ -265,38 +265,41 @@ class ProgramSkill(Skill):
         arm moves, may return a reason to stop the arm and abort (e.g. slip in the grasp)."""
         arm = self.cell.arm
         arm.move_linear(np.asarray(pose, dtype=float), speed)
-        deadline = self.now() + timeout
-        while True:
-            yield  # the snapshot shows the move from the next tick on
-            fault = self.arm_fault()
-            if fault:
-                return f"arm fault during move: {fault}"
-            reason = watch() if watch is not None else None
-            if reason:
-                arm.stop()
-                return reason
-            if not self.arm_moving():
-                return None
-            if self.now() > deadline:
-                arm.stop()
-                return f"move did not finish within {timeout:.0f} s"
+        fault = self.arm_fault
+        return (yield from self._until_still(
+            arm.stop, lambda: fault() and f"arm fault during move: {fault()}", self.arm_moving,
+            timeout, f"move did not finish within {timeout:.0f} s", watch))
 
     def grip(self, width: float, speed: float, force: float, timeout: float = 10.0):
         """Move the fingers to `width`; yields until they stop (at the width or on an object)
         and returns None, or why not. Needs /gripper/fault and /gripper/moving in READS."""
         gripper = self.cell.gripper
         gripper.move(width, speed=speed, force=force)
+        fault = self.gripper_fault
+        return (yield from self._until_still(
+            gripper.stop, lambda: fault() and f"gripper fault: {fault()}", self.gripper_moving,
+            timeout, f"the fingers did not stop within {timeout:.0f} s"))
+
+    def _until_still(self, stop: Callable[[], None], fault: Callable[[], str | None],
+                     moving: Callable[[], bool], timeout: float, late: str,
+                     watch: Callable[[], str | None] | None = None):
+        """Yield until a commanded motion ends; None, or the fault, the watch's reason or `late`
+        (the last two after `stop`)."""
         deadline = self.now() + timeout
         while True:
             yield  # the snapshot shows the motion from the next tick on
-            fault = self.gripper_fault()
-            if fault:
-                return f"gripper fault: {fault}"
-            if not self.gripper_moving():
+            reason = fault()
+            if reason:
+                return reason
+            reason = watch() if watch is not None else None
+            if reason:
+                stop()
+                return reason
+            if not moving():
                 return None
             if self.now() > deadline:
-                gripper.stop()
-                return f"the fingers did not stop within {timeout:.0f} s"
+                stop()
+                return late
 
     def mean_force(self, ticks: int):
         """Average summed finger force over the next `ticks` ticks."""

@@ -19,12 +19,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from drivers.hardware.ur_dashboard import (
-    Dashboard,
-    DashboardError,
-    controller_major,
-    preflight,
-)
+from drivers.hardware.ur_dashboard import Dashboard, DashboardError, controller_major, preflight
 from drivers.protocols import Clock, DriverFault
 
 log = logging.getLogger(__name__)

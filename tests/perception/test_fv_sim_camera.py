@@ -6,11 +6,7 @@ import pytest
 
 from drivers.clock import SimClock
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
-from drivers.sim.models.synthetic_camera import (
-    Appearance,
-    SyntheticFingerVision,
-    pixel_level_sense,
-)
+from drivers.sim.models.synthetic_camera import Appearance, SyntheticFingerVision, pixel_level_sense
 from perception.state import FINGERS, ObjectInfo
 
 

@@ -2,13 +2,7 @@
 
 import numpy as np
 
-from assembly.bench.perception.metrics import (
-    best_threshold,
-    f1,
-    jitter_and_lag,
-    real_swaps,
-    relative_jumps,
-)
+from assembly.bench.perception.metrics import best_threshold, f1, jitter_and_lag, real_swaps, relative_jumps
 from assembly.bench.perception.report import write_table
 
 

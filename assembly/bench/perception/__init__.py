@@ -14,8 +14,16 @@ import cv2
 import numpy as np
 
 from assembly.bench.perception import report
-from assembly.bench.perception.metrics import (best_threshold, f1, jitter_and_lag, median_time, real_swaps, relative_jumps,
-                                          run_sequence, score)
+from assembly.bench.perception.metrics import (
+    best_threshold,
+    f1,
+    jitter_and_lag,
+    median_time,
+    real_swaps,
+    relative_jumps,
+    run_sequence,
+    score,
+)
 from assembly.bench.perception.scenes import Bench
 from drivers.sim.models.synthetic_camera import Appearance
 from perception.config import FingerVisionConfig, load_config

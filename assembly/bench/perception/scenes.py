@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drivers.sim.models.synthetic_camera import Appearance, RenderedFrame, SyntheticFingerVision
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
+from drivers.sim.models.synthetic_camera import Appearance, RenderedFrame, SyntheticFingerVision
 from perception.state import ObjectInfo
 
 OBJECT = ObjectInfo(True, 0.25, np.array([0.06, -0.03]), 0.4)

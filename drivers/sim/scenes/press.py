@@ -17,15 +17,7 @@ import numpy as np
 
 from drivers.protocols import SceneArm, SceneGripper
 from drivers.sim.scenes.base import Scene
-from drivers.sim.scenes.grip import (
-    Grip,
-    pad_contacts,
-    pad_view,
-    picked_up,
-    slip_signal,
-    step_hand,
-    tool_rotation,
-)
+from drivers.sim.scenes.grip import Grip, pad_contacts, pad_view, picked_up, slip_signal, step_hand, tool_rotation
 
 GRAVITY = 9.81
 

@@ -16,14 +16,7 @@ import numpy as np
 
 from drivers.protocols import SceneArm, SceneGripper
 from drivers.sim.scenes.base import Scene
-from drivers.sim.scenes.grip import (
-    pad_contacts,
-    pad_view,
-    picked_up,
-    slip_signal,
-    step_hand,
-    tool_rotation,
-)
+from drivers.sim.scenes.grip import pad_contacts, pad_view, picked_up, slip_signal, step_hand, tool_rotation
 
 
 @dataclass(frozen=True)
