@@ -7,19 +7,24 @@ kinds are the table in `assembly.node_kinds`). Validation walks the whole file, 
 
 from __future__ import annotations
 
+import math
+import reprlib
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
-from typing import Any, Callable, Mapping
+from typing import Any
 
 from py_trees.behaviour import Behaviour
 
 from assembly.conditions import ALL_OPS, split_key
 from assembly.errors import TreeError
-from assembly.yaml_source import Located, LocatedList
 from behaviours import keys as bbkeys
 from behaviours.base import REQUIRED, Param
 from behaviours.registry import SKILLS
 from perception.errors import did_you_mean
+from perception.yaml_source import Located, LocatedList
 
+MAX_NODES = 10_000  # nodes of a tree once its subtrees are expanded (subtrees can multiply them)
+MAX_DEPTH = 200  # levels of nodes
 PARAM_TYPES = ("float", "int", "bool", "str", "vector")
 PARAM_FIELDS = ("type", "default", "doc", "unit")  # of a subtree param declaration
 NODE_FIELDS = ("child", "children")  # fields holding nodes, validated when the walk reaches them
@@ -34,7 +39,7 @@ class NodeSpec:
     name: str
     path: str
     args: dict[str, Any]
-    children: list["NodeSpec"] = field(default_factory=list)
+    children: list[NodeSpec] = field(default_factory=list)
     file: str = ""
     line: int = 0
     type: str = ""  # the skill type or subtree ref
@@ -58,7 +63,7 @@ class Scope:
     params: dict[str, Any] = field(default_factory=dict)
     subtrees: tuple[str, ...] = ()
 
-    def enter(self, subtree: str, params: dict[str, Any]) -> "Scope":
+    def enter(self, subtree: str, params: dict[str, Any]) -> Scope:
         return Scope(params, self.subtrees + (subtree,))
 
 
@@ -75,12 +80,17 @@ class NodeKind:
     doc: str
     fields: Mapping[str, dict]  # field -> JSON Schema of its value
     required: frozenset[str]
-    check: Callable[["Validator", NodeSpec, Located, Scope], None]
+    check: Callable[[Validator, NodeSpec, Located, Scope], None]
     build: Callable[[NodeSpec, list[Behaviour]], Behaviour]
     label: Callable[[NodeSpec], str] = lambda spec: f"[{spec.kind}]"
     value: str = "NAME"
     substitutes: frozenset[str] = frozenset()  # fields whose `$param`s `check` fills in itself
-    variants: Callable[[str, "NodeKind"], list[dict]] | None = None  # when fields cannot say the schema
+    variants: Callable[[str, NodeKind], list[dict]] | None = None  # when fields cannot say the schema
+    # Dataflow (`dataflow_errors`): blackboard keys the node (reads, writes) itself, the keys it
+    # publishes to its children, and whether its children tick together (each sees every sibling).
+    keys: Callable[[NodeSpec], tuple[Iterable[str], Iterable[str]]] | None = None
+    publishes: frozenset[str] = frozenset()
+    concurrent: bool = False
 
     def __post_init__(self):
         if not self.required <= set(self.fields):
@@ -100,6 +110,15 @@ class NodeKind:
                  "properties": properties, "description": self.doc}]
 
 
+def short(value: Any) -> str:
+    """`repr` of a value from a file, cut short enough for an error message."""
+    return _SHORT.repr(value)
+
+
+_SHORT = reprlib.Repr()
+_SHORT.maxstring = _SHORT.maxother = 80
+
+
 def known_blackboard_keys() -> set[str]:
     """Every key a condition may read: perception, task keys and what some skill writes."""
     found = set(bbkeys.PERCEPTION_KEYS) | set(bbkeys.TASK_KEYS)
@@ -115,11 +134,15 @@ class Validator:
     each kind has, and each kind's `check` reads its own fields with the helpers below.
     """
 
-    def __init__(self, kinds: Mapping[str, NodeKind], subtrees: dict[str, SubtreeDef], has_design: bool):
+    def __init__(self, kinds: Mapping[str, NodeKind], subtrees: dict[str, SubtreeDef], has_design: bool,
+                 element_ids: Iterable[str] | None = None):
         self.kinds = kinds
         self.subtrees = subtrees
         self.has_design = has_design
+        self.element_ids = None if element_ids is None else frozenset(element_ids)  # None: not known
         self.errors: list[TreeError] = []
+        self.nodes = 0
+        self.too_large = False
         self._keys = known_blackboard_keys()
 
     def error(self, node: Any, message: str, path: str, key: str | None = None, hint: str | None = None) -> None:
@@ -134,7 +157,14 @@ class Validator:
         """The NodeSpec of one node and its subtree of nodes; None when it cannot even be named.
         `where` (file, line) locates a node that is not a mapping (and so has no line of its own)."""
         if not isinstance(node, Located):
-            self.errors.append(TreeError(f"a node must be a mapping, got {node!r}", *where, parent or "/"))
+            self.errors.append(TreeError(f"a node must be a mapping, got {short(node)}", *where, parent or "/"))
+            return None
+        self.nodes += 1
+        if self.nodes > MAX_NODES or parent.count("/") >= MAX_DEPTH:
+            if not self.too_large:  # say it once
+                self.too_large = True
+                self.error(node, f"the tree has more than {MAX_NODES} nodes or is nested deeper than "
+                           f"{MAX_DEPTH} once its subtrees are expanded", parent)
             return None
         name_of_kind = self._kind(node, parent or "/")
         if name_of_kind is None:
@@ -142,12 +172,12 @@ class Validator:
         kind = self.kinds[name_of_kind]
         value = node[name_of_kind]
         if kind.typed and not isinstance(value, str):
-            self.error(node, f"'{name_of_kind}' takes a {kind.value.lower()} name, got {value!r}",
+            self.error(node, f"'{name_of_kind}' takes a {kind.value.lower()} name, got {short(value)}",
                        parent or "/", name_of_kind)
             return None
         type_, name = (value, node.get("name", value)) if kind.typed else ("", value)
         if not isinstance(name, str) or not name or "/" in name:
-            self.error(node, f"node name must be a non-empty string without '/', got {name!r}",
+            self.error(node, f"node name must be a non-empty string without '/', got {short(name)}",
                        parent or "/", name_of_kind)
             return None
         path = f"{parent}/{name}" if parent else name
@@ -213,7 +243,7 @@ class Validator:
     def flag(self, spec: NodeSpec, node: Located, key: str) -> Any:
         """The field `key`, which must be true or false."""
         if not isinstance(node[key], bool):
-            self.error(node, f"'{key}' must be true or false, got {node[key]!r}", spec.path, key)
+            self.error(node, f"'{key}' must be true or false, got {short(node[key])}", spec.path, key)
         return node[key]
 
     def count(self, spec: NodeSpec, node: Located, key: str, minimum: int, allow_forever: bool = False) -> Any:
@@ -223,7 +253,7 @@ class Validator:
             value >= minimum or (allow_forever and value == -1))
         if not ok:
             extra = " (or -1 for ever)" if allow_forever else ""
-            self.error(node, f"'{key}' must be an integer >= {minimum}{extra}, got {value!r}", spec.path, key)
+            self.error(node, f"'{key}' must be an integer >= {minimum}{extra}, got {short(value)}", spec.path, key)
         return value
 
     def condition(self, spec: NodeSpec, node: Located, scope: Scope) -> dict:
@@ -242,13 +272,15 @@ class Validator:
                        did_you_mean(op, ALL_OPS))
         elif op != "exists" and "value" not in node:
             self.error(node, f"op {op!r} needs a 'value'", spec.path, "op")
+        if not finite(value):
+            self.error(node, f"'value' must hold finite numbers only, got {short(value)}", spec.path, "value")
         return {"key": key, "op": op, "value": value}
 
     def params(self, spec: NodeSpec, node: Located, scope: Scope) -> dict:
         """The node's `params` mapping with `$params` filled in (unchecked: the kind checks it)."""
         params = node.get("params", {}) or {}
         if not isinstance(params, dict):
-            self.error(node, f"'params' must be a mapping, got {params!r}", spec.path, "params")
+            self.error(node, f"'params' must be a mapping, got {short(params)}", spec.path, "params")
             return {}
         return {k: self.substitute(v, scope, spec, node) for k, v in params.items()}
 
@@ -264,6 +296,61 @@ class Validator:
         if isinstance(value, list):
             return [self.substitute(v, scope, spec, node) for v in value]
         return value
+
+
+def finite(value: Any) -> bool:
+    """Whether every number in a value from a file (nested lists and mappings included) is finite."""
+    if isinstance(value, float):
+        return math.isfinite(value)
+    if isinstance(value, (list, tuple)):
+        return all(finite(v) for v in value)
+    if isinstance(value, dict):
+        return all(finite(v) for v in value.values())
+    return True
+
+
+def dataflow_errors(root: NodeSpec, kinds: Mapping[str, NodeKind], provided: Iterable[str]) -> list[TreeError]:
+    """A problem for every key a node reads that no node ticking before it writes.
+
+    `provided` keys are on the blackboard before the first tick (the cell's perception stage
+    publishes them). A node sees what its ancestors publish to their children (`for_each_element`:
+    the task keys) and everything earlier siblings may write; the children of a `concurrent` kind
+    (parallel) see everything any sibling may write. "May write" is everything a subtree can write
+    on any path, so the check never refuses a tree that could run, and a node is not asked for the
+    keys it writes itself (skills that carry state from tick to tick).
+    """
+    written: dict[int, frozenset[str]] = {}
+
+    def writes(spec: NodeSpec) -> frozenset[str]:
+        if id(spec) not in written:
+            kind = kinds[spec.kind]
+            own = set(kind.keys(spec)[1]) if kind.keys else set()
+            written[id(spec)] = frozenset(own | kind.publishes).union(*(writes(c) for c in spec.children))
+        return written[id(spec)]
+
+    errors: list[TreeError] = []
+
+    def visit(spec: NodeSpec, available: frozenset[str]) -> None:
+        kind = kinds[spec.kind]
+        if kind.keys:
+            reads, own = kind.keys(spec)
+            for key in reads:
+                if key not in available and key not in own:
+                    writers = sorted({k for k, other in kinds.items() if key in other.publishes}
+                                     | {f"skill {name}" for name, cls in SKILLS.items() if key in cls.WRITES})
+                    errors.append(TreeError(
+                        f"{spec.kind} {spec.type or spec.name!r} reads {key}, which nothing ticking before it writes",
+                        spec.file, spec.line, spec.path,
+                        f"written by {', '.join(writers)}" if writers else "nothing writes it"))
+        inner = available | kind.publishes
+        if kind.concurrent:
+            inner = inner.union(*(writes(c) for c in spec.children))
+        for child in spec.children:
+            visit(child, inner)
+            inner = inner | writes(child)
+
+    visit(root, frozenset(provided))
+    return errors
 
 
 def subtree_params(raw: Any, where: Located, name: str, errors: list[TreeError]) -> dict[str, Param]:

@@ -10,10 +10,11 @@ import py_trees
 
 from assembly.design import DesignModel
 from assembly.errors import TreeError, TreeErrors
-from assembly.language import NodeSpec, Scope, SubtreeDef, Validator, subtree_params
+from assembly.language import NodeSpec, Scope, SubtreeDef, Validator, dataflow_errors, short, subtree_params
 from assembly.node_kinds import NODE_KINDS
-from assembly.yaml_source import Located, load_file, load_text
+from behaviours.keys import PERCEPTION_KEYS
 from perception.errors import FvtreeError, did_you_mean
+from perception.yaml_source import Located, load_file, load_text
 
 TOP_FIELDS = {"version", "name", "doc", "cell", "design", "include", "subtrees", "root"}
 CELL_FIELDS = {"tick_hz": (int, float), "scene": (str,)}
@@ -57,6 +58,10 @@ def _top_level(doc: object, file: str, errors: list[TreeError], need_root: bool)
     for key in required:
         if key not in doc:
             errors.append(TreeError(f"missing top-level field {key!r}", file, doc.line))
+    for key in ("name", "design"):
+        if key in doc and (not isinstance(doc[key], str) or not doc[key]):
+            errors.append(TreeError(f"'{key}' must be a non-empty string, got {short(doc[key])}", file,
+                                    doc.line_of(key)))
     return True
 
 
@@ -76,7 +81,7 @@ def _collect_subtrees(doc: Located, file: str, out: dict[str, SubtreeDef], error
             continue
         try:
             sub = load_file(base / str(rel))
-        except TreeError as exc:
+        except FvtreeError as exc:
             errors.append(TreeError(f"include {rel!r}: {exc.message}", exc.file or file,
                                     exc.line or line))
             continue
@@ -128,8 +133,8 @@ def _cell_settings(doc: Located, file: str, errors: list[TreeError]) -> tuple[fl
 
 def _design(doc: Located, file: str, errors: list[TreeError]) -> DesignModel | None:
     """The design model the tree names (relative to the tree file), if any."""
-    if "design" not in doc:
-        return None
+    if not isinstance(doc.get("design"), str):
+        return None  # none, or not a path (reported with the top-level fields)
     try:
         return DesignModel.load(Path(file).parent / str(doc["design"]))
     except FvtreeError as exc:
@@ -141,12 +146,15 @@ def _design(doc: Located, file: str, errors: list[TreeError]) -> DesignModel | N
         return None
 
 
-def load_tree(path: str | Path | None = None, text: str | None = None, name: str = "<tree>") -> TreeDocument:
-    """Parse and validate a tree file (or `text`); raises TreeErrors listing every problem."""
+def load_tree(path: str | Path | None = None, text: str | None = None, name: str = "<tree>",
+              dataflow: bool = True) -> TreeDocument:
+    """Parse and validate a tree file (or `text`); raises TreeErrors listing every problem.
+    `dataflow` also refuses a node that reads a blackboard key nothing ticking before it writes
+    (off for tests that put the keys on the blackboard by hand)."""
     file = str(path) if path is not None else name
     try:
         doc = load_file(path) if text is None else load_text(text, file)
-    except TreeError as exc:
+    except FvtreeError as exc:
         raise TreeErrors([exc]) from None
     errors: list[TreeError] = []
     if not _top_level(doc, file, errors, need_root=True):
@@ -157,9 +165,12 @@ def load_tree(path: str | Path | None = None, text: str | None = None, name: str
     _collect_subtrees(doc, file, subtrees, errors, (str(Path(file).resolve()),))
     root = None
     if "root" in doc:
-        validator = Validator(NODE_KINDS, subtrees, has_design="design" in doc)
+        validator = Validator(NODE_KINDS, subtrees, has_design="design" in doc,
+                              element_ids=None if design is None else design.elements())
         root = validator.node(doc["root"], "", Scope(), (file, doc.line_of("root")))
         errors.extend(validator.errors)
+        if dataflow and not validator.errors and root is not None:
+            errors.extend(dataflow_errors(root, NODE_KINDS, PERCEPTION_KEYS))
     if errors:
         raise TreeErrors(errors)
     return TreeDocument(file, str(doc["name"]), float(tick_hz), scene, design, root, subtrees)

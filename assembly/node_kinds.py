@@ -9,7 +9,8 @@ is one entry here (see `tests/test_node_kinds.py`).
 
 from __future__ import annotations
 
-from typing import Any, Callable, Mapping
+from collections.abc import Callable, Mapping
+from typing import Any
 
 import py_trees
 from py_trees.behaviour import Behaviour
@@ -18,11 +19,14 @@ from py_trees.common import ParallelPolicy, Status
 from assembly.conditions import ALL_OPS, Condition
 from assembly.decorators import CellTimeout, Guard, StatusMap
 from assembly.iteration import ForEachElement
-from assembly.language import COMMON_FIELDS, NodeKind, NodeSpec, Scope, Validator
-from assembly.yaml_source import Located
+from assembly.language import COMMON_FIELDS, NodeKind, NodeSpec, Scope, Validator, finite, short
 from behaviours.base import Param
+from behaviours.keys import TASK_KEYS
+from behaviours.model_files import check_model
 from behaviours.registry import SKILLS
 from perception.errors import did_you_mean
+from perception.learning.models import ModelError
+from perception.yaml_source import Located
 
 STATUSES = {"success": Status.SUCCESS, "failure": Status.FAILURE, "running": Status.RUNNING}
 POLICIES = ("all", "one", "selected")
@@ -82,8 +86,9 @@ def _repeat(validator, spec, node, scope) -> None:
 
 def _timeout(validator, spec, node, scope) -> None:
     seconds = node["seconds"]
-    if not isinstance(seconds, (int, float)) or isinstance(seconds, bool) or seconds <= 0:
-        validator.error(node, f"'seconds' must be a positive number, got {seconds!r}", spec.path, "seconds")
+    if not isinstance(seconds, (int, float)) or isinstance(seconds, bool) or not finite(seconds) or seconds <= 0:
+        validator.error(node, f"'seconds' must be a positive finite number, got {short(seconds)}", spec.path,
+                        "seconds")
     spec.args["seconds"] = seconds
     _one_child(validator, spec, node, scope)
 
@@ -115,7 +120,17 @@ def _for_each_element(validator, spec, node, scope) -> None:
     if not validator.has_design:
         validator.error(node, "for_each_element needs a design model", spec.path, "for_each_element",
                         "add 'design: path/to/model.json' at the top of the tree file")
-    spec.args["elements"] = node.get("elements")
+    elements = node.get("elements")
+    if elements is not None and (not isinstance(elements, list) or not all(isinstance(e, str) for e in elements)):
+        validator.error(node, f"'elements' must be a list of element ids, got {short(elements)}", spec.path,
+                        "elements")
+    elif elements is not None and validator.element_ids is not None:
+        for eid in elements:
+            if eid not in validator.element_ids:
+                validator.error(node, f"element {eid!r} is not in the design", spec.path, "elements",
+                                did_you_mean(eid, validator.element_ids) or
+                                f"its elements: {', '.join(sorted(validator.element_ids))}")
+    spec.args["elements"] = elements
     _one_child(validator, spec, node, scope)
 
 
@@ -138,7 +153,9 @@ def _skill(validator, spec, node, scope) -> None:
     if unknown:
         return
     try:
-        spec.args["params"] = cls.resolve_params(params)
+        spec.args["params"] = check_model(cls, cls.resolve_params(params), params, spec.file)
+    except ModelError as exc:
+        validator.error(node, f"param 'model': {exc.message}", spec.path, "params")
     except ValueError as exc:
         validator.error(node, str(exc), spec.path, "params")
 
@@ -275,7 +292,7 @@ NODE_KINDS: dict[str, NodeKind] = {
         fields={"policy": {"enum": list(POLICIES)}, "children": CHILDREN, "synchronise": BOOLEAN,
                 "selected": {"type": "array", "items": STRING}},
         required=frozenset({"policy", "children"}), check=_parallel, build=_build_parallel,
-        label=_label_with("policy")),
+        label=_label_with("policy"), concurrent=True),
     "retry": _decorator(
         doc="fails after `attempts` failures of the child",
         fields={"attempts": {"type": "integer", "minimum": 1}}, check=_retry, label=_label_with("attempts"),
@@ -309,7 +326,7 @@ NODE_KINDS: dict[str, NodeKind] = {
     "for_each_element": NodeKind(
         doc="runs the child once per unplaced design element, in build order, publishing it on /task/element",
         fields={"child": NODE, "elements": {"type": "array", "items": STRING}}, required=frozenset({"child"}),
-        check=_for_each_element,
+        check=_for_each_element, publishes=frozenset(TASK_KEYS),
         build=lambda spec, kids: ForEachElement(spec.name, kids[0], spec.args["elements"])),
     "condition": NodeKind(
         doc="compares a blackboard value, `key op value`, e.g. `key: /fv/left.slip`",
@@ -321,6 +338,7 @@ NODE_KINDS: dict[str, NodeKind] = {
         doc="a tactile skill; its params are checked against the skill's declaration",
         fields={"name": STRING, "params": {"type": "object"}}, required=frozenset(), check=_skill,
         label=_label_skill, value="TYPE", substitutes=frozenset({"params"}), variants=_skill_variants,
+        keys=lambda spec: (SKILLS[spec.type].READS, SKILLS[spec.type].WRITES),
         build=lambda spec, kids: SKILLS[spec.type](spec.name, resolved=spec.args["params"])),
     "subtree": NodeKind(
         doc="an instance of a subtree; `$param` strings in its body take the given values",

@@ -21,7 +21,7 @@ class ClassifySubstance(UsesModel, ProgramSkill):
     MODEL_KIND = "stir"
     SUMMARY = "stir the dipped stick and classify the substance (StirLearn)"
     PARAMS = {
-        "model": Param("str", "StirLearn model file (fvtree train stir)", "trees/models/stir_sim.joblib"),
+        "model": Param("str", "StirLearn model file (fvtree train stir)", "trees/models/stir_sim.npz"),
         "movement": Param("str", "stirring movement", "circle_large_slow", choices=tuple(MOVEMENTS)),
         "duration": Param("float", "how long to stir", 4.0, "s", min=0.5, max=60.0),
         "min_confidence": Param("float", "fail below this probability of the best class", 0.6, min=0.0, max=1.0),

@@ -25,7 +25,7 @@ class PressWithForce(UsesModel, ProgramSkill):
     MODEL_KIND = "force"
     SUMMARY = "press along tool z until the learned force (ForceLearn) reaches a target in newtons"
     PARAMS = {
-        "model": Param("str", "ForceLearn model file (fvtree train force)", "trees/models/force_sim.joblib"),
+        "model": Param("str", "ForceLearn model file (fvtree train force)", "trees/models/force_sim.npz"),
         "target": Param("float", "force to press with", 5.0, "N", min=0.0),
         "tolerance": Param("float", "how close to the target counts as reached", 0.3, "N", min=0.01),
         "gain": Param("float", "press speed per newton of force error", 0.002, "m/s/N", min=0.0),

@@ -7,9 +7,8 @@ import dataclasses
 from pathlib import Path
 from typing import Any, Iterable
 
-import yaml
-
 from perception.errors import FvtreeError, did_you_mean
+from perception.yaml_source import Located, SourceError, load_file
 
 CELLS_DIR = Path(__file__).parent / "cells"
 
@@ -17,25 +16,26 @@ CELLS_DIR = Path(__file__).parent / "cells"
 class CellFileError(FvtreeError):
     """A cell file is missing, malformed or names an unknown field; `field` is a dotted path."""
 
-    def __init__(self, path: str | Path, field: str, message: str, hint: str | None = None):
-        super().__init__(message, str(path), line_of_field(path, field), field or None, hint)
+    def __init__(self, path: str | Path, field: str, message: str, hint: str | None = None,
+                 line: int | None = None):
+        super().__init__(message, str(path), line if line is not None else line_of_field(path, field),
+                         field or None, hint)
         self.path = str(path)
 
 
 def line_of_field(path: str | Path, field: str) -> int | None:
     """Line (1-based) of a dotted field (`safety.max_speed`) in a YAML file, if it is there."""
+    if not field:
+        return None
     try:
-        node = yaml.compose(Path(path).read_text())
-    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        node = load_file(path)
+    except SourceError:
         return None
     line = None
-    for part in field.split(".") if field else []:
-        if not isinstance(node, yaml.MappingNode):
+    for part in field.split("."):
+        if not isinstance(node, Located) or part not in node:
             break
-        match = next(((k, v) for k, v in node.value if getattr(k, "value", None) == part), None)
-        if match is None:
-            break
-        line, node = match[0].start_mark.line + 1, match[1]
+        line, node = node.line_of(part), node[part]
     return line
 
 
@@ -48,16 +48,20 @@ def resolve_cell_path(name_or_path: str) -> Path:
 
 
 def read_cell_file(path: Path) -> dict:
-    """The cell file as a mapping with a `kind`, or CellFileError."""
+    """The cell file as a mapping with a `kind`, or CellFileError. Read by the hardened reader of
+    `perception.yaml_source` (regular files only, size, nesting and aliases capped, finite numbers)."""
+    path = Path(path)
     if not path.exists():
         known = ", ".join(sorted(p.stem for p in CELLS_DIR.glob("*.yaml")))
         raise CellFileError(path, "", f"no such cell file (packaged cells: {known})")
     try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as exc:
-        raise CellFileError(path, "", f"malformed YAML: {exc}") from None
+        data = load_file(path)
+    except SourceError as exc:
+        raise CellFileError(path, "", exc.message, exc.hint, exc.line) from None
     if not isinstance(data, dict) or "kind" not in data:
         raise CellFileError(path, "kind", "a cell file is a mapping with 'kind: sim' or 'kind: real'")
+    if not isinstance(data["kind"], str):
+        raise CellFileError(path, "kind", f"must be a name (sim, real), got {data['kind']!r}")
     return data
 
 

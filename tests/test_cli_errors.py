@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import time
 from pathlib import Path
 
 import pytest
@@ -104,3 +106,91 @@ def test_record_and_train(tree_file, tmp_path, capsys):
 def test_unknown_command_and_choices(capsys):
     assert "invalid choice" in usage_error(["bench", "nope"], capsys)
     assert "invalid choice" in usage_error(["flyto"], capsys)
+
+
+BOMB = "version: 1\nname: bomb\na: &a [lol, lol, lol, lol, lol, lol, lol, lol, lol]\n" + "".join(
+    f"{b}: &{b} [{', '.join([f'*{a}'] * 9)}]\n" for a, b in zip("abcdefgh", "bcdefghi")) + "root: {skill: move_to}\n"
+
+
+@pytest.mark.parametrize("content, message", [
+    (BOMB, "tree.yaml: more than 200000 values once its aliases are expanded"),
+    ("version: 1\nname: deep\nroot: " + "[" * 3000 + "]" * 3000 + "\n", "tree.yaml:3: nested more than 100 levels deep"),
+    (b"version: 1\nname: t\xff\n", "tree.yaml:2: not UTF-8 text: byte 0xff"),
+    ("version: 1\nname: t\x01\n", "tree.yaml:2: malformed YAML: character #x0001"),
+    ("version: 1\nname: t\n? [a, b]\n: 1\n", "tree.yaml:3: a mapping key must be a plain value"),
+    ("version: 1\nname: t\nroot: {skill: {}}\n", "tree.yaml:3: /: 'skill' takes a type name, got {}"),
+    ("version: 1\nname: t\nroot: {skill: [move_to]}\n", "tree.yaml:3: /: 'skill' takes a type name"),
+    ("version: 1\nname: t\nroot: {skill: move_to, params: {speed: .nan}}\n", "tree.yaml:3: '.nan' is not a finite number"),
+    ("version: 1\nname: t\nrec: &r [*r]\nroot: {skill: move_to}\n", "tree.yaml:3: an alias refers to the node"),
+    ("version: 1\nname: t\n" + "x" * (1 << 20), "tree.yaml: larger than 1024 KiB"),
+])
+def test_hostile_tree_files_give_located_errors_quickly(tmp_path, capsys, content, message):
+    path = tmp_path / "tree.yaml"
+    path.write_bytes(content if isinstance(content, bytes) else content.encode())
+    started = time.perf_counter()
+    assert message in fails_with(["validate", str(path)], capsys)
+    assert time.perf_counter() - started < 5.0  # well under a second alone; generous for a loaded machine
+
+
+def test_directories_and_fifos_are_refused_without_opening_them(tmp_path, capsys):
+    fifo = tmp_path / "design.json"
+    os.mkfifo(fifo)  # opening it for reading would block until a writer comes
+    (tmp_path / "dir.yaml").mkdir()
+    assert "design.json: not a regular file: a FIFO" in fails_with(["validate", str(fifo)], capsys)
+    assert "dir.yaml: not a regular file: a directory" in fails_with(["validate", str(tmp_path / "dir.yaml")], capsys)
+    tree = f"version: 1\nname: t\ndesign: {fifo}\nroot: {{skill: move_to}}\n"
+    assert "not a regular file: a FIFO" in fails_with(["validate", str(write(tmp_path / "t.yaml", tree))], capsys)
+
+
+def write(path: Path, text: str) -> Path:
+    path.write_text(text)
+    return path
+
+
+def test_validate_a_design_file(tmp_path, capsys):
+    good = TREES / "design" / "two_bays.json"
+    assert main(["validate", str(good)]) == 0
+    assert "ok (design, 2 elements on 2 plates)" in capsys.readouterr().out
+    text = good.read_text()
+    for change, message in [
+        (('"span": 1.0', '"span": 1.0, "sim_lod": 2'), "design.json:6: plate 'P1': unknown field 'sim_lod'"),
+        (('"status": "planned"', '"statu": "planned"'), "element 'E1': unknown field 'statu' (did you mean 'status'?)"),
+        (('"status": "planned"', '"status": "plced"'), "field 'status' must be one of planned, placing, placed"),
+        (('"span": 1.0', '"span": NaN'), "plate 'P1': field 'span' must be number (finite), got nan"),
+        (('"width": 0.2', '"width": -0.2'), "plate 'P1': field 'width' must be above 0"),
+        (('"mass": 0.4', '"mass": Infinity'), "element 'E1': field 'mass' must be number (finite)"),
+        (('"nodes": [', '"nodes": [1, '), "design.json:5: design: field 'nodes' item 0 must be object"),
+        (('{"source": "E1", "target": "E2"}', '{"source": "E1", "target": "E9"}'), "edge target 'E9' is not a node"),
+        (('"directed": true,', '"directed": true,\n "directed": true,'), "design.json:3: duplicate key 'directed'"),
+        (('"nodes"', '"nodes'), "design.json:5: malformed JSON"),
+    ]:
+        assert change[0] in text
+        err = fails_with(["validate", str(write(tmp_path / "design.json", text.replace(*change, 1)))], capsys)
+        assert message in err, err
+    deep = write(tmp_path / "deep.json", "[" * 100_000 + "]" * 100_000)
+    assert "deep.json: malformed JSON: nested too deeply" in fails_with(["validate", str(deep)], capsys)
+
+
+def test_validate_a_cell_file(tmp_path, capsys):
+    for name in ("sim", "emulated", "emulated_shadow", "ur_robotiq"):
+        assert main(["validate", "--cell", name]) == 0
+    assert "kind sim" in capsys.readouterr().out
+    sim = (Path(__file__).resolve().parents[1] / "drivers" / "cells" / "sim.yaml").read_text()
+    for change, message in [
+        (("max_force: 120.0", "max_force: .nan"), "cell.yaml:9: '.nan' is not a finite number"),
+        (("home: [0.0, 0.0, 0.5,", "home: [0.0, 0.0, 1.5,"), "cell.yaml:4: home: position [0.0, 0.0, 1.5] is outside the safety box"),
+        (("home: [0.0, 0.0, 0.5,", "home: [0.0, 0.0, zero,"), "cell.yaml:4: home: must be a pose of 6 finite numbers"),
+        (("gripper:", "griper:"), "cell.yaml:12: griper: unknown field (did you mean 'gripper'?)"),
+        (("kind: sim", "kind: [sim]"), "cell.yaml:2: kind: must be a name"),
+    ]:
+        assert change[0] in sim
+        err = fails_with(["validate", "--cell", str(write(tmp_path / "cell.yaml", sim.replace(*change, 1)))], capsys)
+        assert message in err, err
+
+
+def test_element_ids_are_checked_against_the_design(tree_file, capsys):
+    design = TREES / "design" / "two_bays.json"
+    text = (f"version: 1\nname: t\ndesign: {design}\nroot:\n  for_each_element: each\n  elements: [E1, E9]\n"
+            "  child: {skill: locate_element}\n")
+    err = fails_with(["validate", str(tree_file(text))], capsys)
+    assert "tree.yaml:6: each: element 'E9' is not in the design (its elements: E1, E2)" in err

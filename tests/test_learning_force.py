@@ -3,6 +3,9 @@ and the file formats' checks (recording round trip, feature-spec and kind mismat
 
 from __future__ import annotations
 
+import pickle
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -38,11 +41,11 @@ def test_forcelearn_predicts_within_the_scale_noise(presses):
 
 
 def test_loading_a_model_for_other_features_or_of_another_kind_fails_clearly(tmp_path, monkeypatch):
-    path = TrainedModel("force", estimator=None, info={}).save(tmp_path / "m.joblib")
+    path = TrainedModel("force", estimator=None, info={}).save(tmp_path / "m.npz")
     with pytest.raises(ModelError, match="a 'force' model, but a 'stir' model is needed"):
         load_model(path, "stir")
     with pytest.raises(ModelError, match="fvtree train force"):
-        load_model(tmp_path / "missing.joblib", "force")
+        load_model(tmp_path / "missing.npz", "force")
     monkeypatch.setattr("perception.learning.features.GRID", (4, 4))
     with pytest.raises(ModelError, match="different features .*grid.*retrain"):
         load_model(path, "force")
@@ -66,3 +69,38 @@ def test_concatenated_runs_keep_their_segments_apart():
     joined = Recording.concatenate([part([-1, 0, 0, 1]), part([0, -1, 1])], {})
     assert joined.segment.tolist() == [-1, 0, 0, 1, 2, -1, 3]
     assert joined.run.tolist() == [0, 0, 0, 0, 1, 1, 1]
+
+
+def test_model_files_hold_plain_arrays_and_predict_as_trained(presses, tmp_path):
+    model, _ = train_force(presses, max_samples=120)
+    path = model.save(tmp_path / "force.npz")
+    with np.load(path, allow_pickle=False) as npz:  # readable without unpickling anything
+        assert all(npz[name].dtype != object for name in npz.files)
+    x = np.random.default_rng(1).normal(size=(20, model.estimator[0].n_features_in_))
+    assert np.array_equal(load_model(path, "force").estimator.predict(x), model.estimator.predict(x))
+
+
+def test_pickles_and_broken_model_files_are_refused_without_running_them(tmp_path):
+    marker = tmp_path / "ran"
+    pickle_file = tmp_path / "evil.joblib"
+    pickle_file.write_bytes(pickle.dumps(Planted(str(marker))))
+    with pytest.raises(ModelError, match="pickles can run code when loaded and are refused"):
+        load_model(pickle_file, "force")
+    assert not marker.exists()
+    arrays = tmp_path / "objects.npz"
+    np.savez(arrays, header=np.array([{"format": "fvtree-model"}], dtype=object))
+    with pytest.raises(ModelError, match="not a model file"):
+        load_model(arrays, "force")
+    good = TrainedModel("force", None, {}).save(tmp_path / "empty.npz")
+    with pytest.raises(ModelError, match="does not describe an estimator"):
+        load_model(good, "force")
+
+
+class Planted:
+    """Unpickling this would create a file: the loader must never get that far."""
+
+    def __init__(self, path: str):
+        self.path = path
+
+    def __reduce__(self):
+        return (Path.touch, (Path(self.path),))

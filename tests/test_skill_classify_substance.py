@@ -3,6 +3,9 @@ StirLearn model; reports stirring in the air and unusable models; stops when hal
 
 from __future__ import annotations
 
+import pytest
+
+from assembly.errors import TreeErrors
 from assembly.testing import TreeHarness
 from drivers.cell_builders import load_cell
 
@@ -29,10 +32,10 @@ def test_reports_stirring_in_the_air():
     assert "is the stick dipped" in h.feedback("s/c")
 
 
-def test_reports_a_missing_model(tmp_path):
-    h = in_air(f"{{model: {tmp_path / 'none.joblib'}}}")
-    assert h.run_until_done(1000).name == "FAILURE"
-    assert "fvtree train stir" in h.feedback("s/c")
+def test_reports_a_missing_model_before_it_runs(tmp_path):
+    with pytest.raises(TreeErrors) as err:
+        in_air(f"{{model: {tmp_path / 'none.npz'}}}")
+    assert "fvtree train stir" in str(err.value)
 
 
 def test_halted_while_stirring_stops_the_arm():

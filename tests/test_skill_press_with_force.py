@@ -7,9 +7,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from assembly.errors import TreeErrors
 from assembly.testing import TreeHarness, touch
 from drivers.cell_builders import load_cell
-from perception.learning.models import TrainedModel
+from perception.learning.models import load_model
 
 GRIP, WEIGHT = 10.0, 0.05 * 9.81
 
@@ -46,11 +47,12 @@ def test_press_with_force_reports_nothing_under_the_object():
     assert "nothing under the object" in h.feedback("s") and not h.arm.is_moving()
 
 
-def test_press_with_force_refuses_a_model_of_another_kind(tmp_path):
-    path = TrainedModel("stir", estimator=None, info={}).save(tmp_path / "stir.joblib")
-    h = one_skill(f"{{model: {path}}}")
-    assert h.run_until_done(5).name == "FAILURE"
-    assert "a 'force' model is needed" in h.feedback("s")
+def test_press_with_force_refuses_a_model_of_another_kind_before_it_runs(tmp_path):
+    stir = load_model("trees/models/stir_sim.npz", "stir")
+    path = stir.save(tmp_path / "stir.npz")
+    with pytest.raises(TreeErrors) as err:
+        one_skill(f"{{model: {path}}}")
+    assert "a 'force' model is needed" in str(err.value)
 
 
 def test_press_with_force_halted_stops_the_arm():
@@ -66,5 +68,6 @@ def test_press_with_force_halted_stops_the_arm():
 def test_the_scale_feels_the_target(target):
     cell = load_cell("sim", 30, "press", {})
     text = open("trees/press_with_force.yaml").read().replace("target: 5.0", f"target: {target}")
-    assert TreeHarness.from_text(text, cell=cell).run_until_done(2000).name == "SUCCESS"
+    harness = TreeHarness.from_text(text, cell=cell, name="trees/press_with_force.yaml")
+    assert harness.run_until_done(2000).name == "SUCCESS"
     assert cell.world.force == pytest.approx(target, abs=0.3)

@@ -1,5 +1,5 @@
 """`fvtree train force|stir DATA --out MODEL`: train on a recording, print the paper's kind of
-report, and save the model with its report (JSON) and chart (PNG) next to it."""
+report, and save the model (`.npz`, plain arrays) with its report (JSON) and chart (PNG) next to it."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from perception.learning.dataset import Recording
+from perception.learning.models import SUFFIX, ModelError
 
 
 def format_force_report(report: dict) -> str:
@@ -57,8 +58,10 @@ def plot_force(report: dict, path: Path) -> Path:
 
 def run(kind: str, data: str | Path, out: str | Path, seed: int = 0) -> list[Path]:
     """Train a `kind` model on the recording `data`, save it at `out`; returns the files written."""
-    rec = Recording.load(data)
     out = Path(out)
+    if out.suffix != SUFFIX:
+        raise ModelError(f"a model file is {SUFFIX} (plain arrays, no pickle), got {out.name}", str(out))
+    rec = Recording.load(data)
     out.parent.mkdir(parents=True, exist_ok=True)
     if kind == "force":
         from perception.learning.force import train_force

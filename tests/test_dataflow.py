@@ -1,0 +1,63 @@
+"""Dataflow before the first tick: a node reading a blackboard key that nothing ticking before it
+writes (and the cell's perception stage does not publish) is a validation error naming it."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from assembly.errors import TreeErrors
+from assembly.loader import load_tree
+
+TREES = Path(__file__).resolve().parents[1] / "trees"
+DESIGN = TREES / "design" / "two_bays.json"
+
+
+def problems(root: str, design: bool = False) -> list[str]:
+    text = f"version: 1\nname: t\n{f'design: {DESIGN}' if design else ''}\nroot:\n{root}"
+    try:
+        load_tree(text=text, name="t.yaml")
+    except TreeErrors as exc:
+        return [str(e) for e in exc.errors]
+    return []
+
+
+def test_a_skill_alone_that_needs_the_task_is_refused_naming_skill_and_key():
+    [element, plates, length] = problems("  skill: approach_plate\n")
+    assert "t.yaml:5: approach_plate: skill 'approach_plate' reads /task/element" in element
+    assert "written by for_each_element" in element and "/task/plates" in plates
+    assert "/task/element_length" in length and "skill vis_scan" in length
+
+
+def test_place_element_outside_for_each_element_is_refused():
+    found = problems("  sequence: s\n  memory: true\n  children:\n    - {skill: find_max_load}\n"
+                     "    - {skill: vis_scan}\n    - {skill: place_element}\n")
+    assert any("s/find_max_load: skill 'find_max_load' reads /task/element," in p for p in found)
+    assert any("s/place_element: skill 'place_element' reads /task/element," in p for p in found)
+    assert not any("place_element' reads /task/measured_load" in p for p in found)  # find_max_load ran before
+
+
+def test_the_order_of_siblings_matters_in_a_sequence_and_not_in_a_parallel():
+    body = "    - {{skill: {0}}}\n    - {{skill: {1}}}\n"
+    inside = "  for_each_element: each\n  child:\n    {kind}: s\n    {extra}\n    children:\n" + body
+    sequence = inside.replace("{kind}", "sequence").replace("{extra}", "memory: true")
+    parallel = inside.replace("{kind}", "parallel").replace("{extra}", "policy: all")
+    assert problems(sequence.format("vis_scan", "rotate_element"), design=True) == []
+    [late] = problems(sequence.format("rotate_element", "vis_scan"), design=True)
+    assert "each/s/rotate_element: skill 'rotate_element' reads /task/element_length" in late
+    assert problems(parallel.format("rotate_element", "vis_scan"), design=True) == []
+
+
+def test_skills_that_keep_their_own_state_and_perception_readers_are_fine():
+    assert problems("  skill: stir\n") == []  # reads the /task/stir_trial it writes
+    assert problems("  skill: gentle_grasp\n") == []  # perception only
+
+
+@pytest.mark.parametrize("tree", sorted(TREES.glob("*.yaml")), ids=lambda p: p.name)
+def test_no_false_errors_on_the_shipped_trees(tree):
+    load_tree(tree)  # raises on any problem, dataflow included
+
+
+def test_tests_that_set_keys_by_hand_can_skip_the_check():
+    assert load_tree(text="version: 1\nname: t\nroot: {skill: approach_plate}\n", dataflow=False)
