@@ -18,6 +18,7 @@ from behaviours import (  # noqa: F401  (importing registers the skills)
     object_track,
     place_element,
     press_with_force,
+    release,
     rotate_element,
     stir,
     vis_scan,

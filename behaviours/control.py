@@ -1,5 +1,5 @@
-"""Small control laws shared by skills: leaky integrator, SpeedCtrl and the force-change
-detector of gentle grasping."""
+"""Small control laws shared by skills: leaky integrator (and the gentle opening through it that
+place_element and release share), SpeedCtrl and the force-change detector of gentle grasping."""
 
 from __future__ import annotations
 
@@ -70,3 +70,24 @@ def speed_ctrl(force: np.ndarray, v_min: float, v_max: float, f_min: float, f_ma
     alpha = speed_ctrl_gain(v_min, v_max, f_min, f_max)
     speed = np.clip(v_min + alpha * (np.abs(f) - f_min), v_min, v_max)
     return np.where(np.abs(f) > eps, np.sign(f) * speed, 0.0)
+
+
+def leaky_open(skill, target: float, alpha: float, max_time: float, speed: float = 0.05):
+    """Steps of a ProgramSkill (`yield from`) opening its gripper from the current width to
+    `target` through the leaky integrator with L = -1 (the opening goes 0 -> 1 with inertia
+    `alpha`); returns None once open, or why not (a gripper fault, or not open within
+    `max_time`). The skill needs /gripper/width and /gripper/fault in READS."""
+    gripper = skill.cell.gripper
+    start, t0 = skill.gripper_width(), skill.now()
+    drive = LeakyIntegrator(alpha)
+    while skill.gripper_width() < target - 1e-4:
+        if skill.now() - t0 > max_time:
+            gripper.stop()
+            return (f"the fingers opened to {skill.gripper_width() * 1000:.1f} mm of {target * 1000:.1f} mm "
+                    f"within {max_time:.0f} s")
+        gripper.move(start + drive.step(-1.0) * (target - start), speed=speed)
+        yield
+        fault = skill.gripper_fault()
+        if fault:
+            return f"gripper fault: {fault}"
+    return None

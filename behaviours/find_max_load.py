@@ -1,6 +1,14 @@
 """Find where the plate loads the element most: lift the foot clear, slide in under the plate,
 slide along the span measuring the load through the fingers every tick, locate the peak
-(smoothing + local quadratic fit), go there and set the foot back down."""
+(smoothing + local quadratic fit), go there and set the foot back down.
+
+The scan is only trusted when the grip held and the profile peaks clearly. A grip that slips
+under the plate's load (slip felt on `slip_ticks` ticks) caps the load the fingers feel, so the
+profile flat-lines and its maximum means nothing; a peak at the end of the scan, or no higher
+above the rest of the profile than the noise, is no maximum either. Either way the skill slides
+back out, sets the foot on the ground, grasps firmer (`regrasp_squeeze` further, up to
+`regrasp_force`) and scans again, at most `max_regrasps` times, then fails naming the element
+rather than placing it at a bad point."""
 
 from __future__ import annotations
 
@@ -10,6 +18,7 @@ from py_trees.common import Status
 from behaviours import keys
 from behaviours.approach_plate import plate_of
 from behaviours.base import Param, ProgramSkill, summed_force
+from behaviours.hand import total_slip
 from behaviours.load_search import locate_peak
 from behaviours.registry import register
 
@@ -26,9 +35,18 @@ class FindMaxLoad(ProgramSkill):
         "fit_half_width": Param("float", "half width of the quadratic fit around the best sample", 0.08, "m", min=0.005),
         "min_load": Param("float", "a peak below this means the plate was never touched", 0.5, "px", min=0.0),
         "reference_ticks": Param("int", "ticks averaged for the unloaded reference", 10, min=1),
+        "slip": Param("float", "slip (both fingers) that counts as the element sliding in the grip", 0.01, min=0.0),
+        "slip_ticks": Param("int", "ticks of slip during a scan that mean the grip did not hold", 5, min=1),
+        "min_clarity": Param("float", "least peak prominence, in units of the load noise, of a trusted maximum",
+                             5.0, min=0.0),
+        "max_regrasps": Param("int", "firmer re-grasps and rescans before giving up", 1, min=0, max=5),
+        "regrasp_squeeze": Param("float", "further closing at each re-grasp", 0.01, "m", min=0.0005, max=0.03),
+        "regrasp_force": Param("float", "gripper force limit of a re-grasp", 80.0, "N", min=1.0),
+        "touch_eps": Param("float", "force change that means the foot touched the ground before a re-grasp",
+                           0.5, "px", min=0.0),
     }
     READS = (keys.ELEMENT, keys.PLATES, keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT,
-             keys.ROBOT_MOVING)
+             keys.ROBOT_MOVING, keys.GRIPPER_WIDTH, keys.GRIPPER_FAULT, keys.GRIPPER_MOVING)
     WRITES = (keys.LOAD_PROFILE, keys.BEST_POSE, keys.MEASURED_LOAD)
 
     @classmethod
@@ -40,45 +58,23 @@ class FindMaxLoad(ProgramSkill):
     def program(self):
         element = self.read(keys.ELEMENT)
         plate = plate_of(element, self.read(keys.PLATES, {}))
-        x0, span = float(plate["origin"][0]), float(plate["span"])
-        start, end = (x0 + f * span for f in self.p.span)
-
-        pose = self.pose()
-        pose[2] += self.p.lift
-        fault = yield from self.move(pose, 0.01)
-        if fault:
-            return self.fail(fault)
-        f_ref = yield from self.mean_force(self.p.reference_ticks)
-
-        pose[0], pose[1] = start, plate["origin"][1]
-        self.feedback_message = "sliding in under the plate"
-        fault = yield from self.move(pose, 0.05)
-        if fault:
-            return self.fail(fault)
-
-        positions, loads = [], []
-
-        def sample() -> None:
-            left, right = self.tactile()
-            # The plate pushes the upright element down its axis (image x of both fingers).
-            positions.append(self.pose()[0] - x0)
-            loads.append(-(summed_force(left, right) - f_ref)[0])
-            self.feedback_message = f"scan at {positions[-1]:.3f} m, load {loads[-1]:.2f}"
-
-        # Twice the time the scan should take, and a margin for the controller to get going.
-        timeout = 2.0 * abs(end - start) / self.p.speed + 10.0
-        fault = yield from self.move(np.r_[end, pose[1:]], self.p.speed, timeout, watch=sample)
-        if fault:
-            return self.fail(fault)
-
-        peak = locate_peak(positions, loads, self.p.smoothing, self.p.fit_half_width)
-        profile = {"plate": element["plate"], "position": np.array(positions), "load": np.array(loads),
-                   "smoothed": peak.smoothed, "best_position": peak.position, "best_load": peak.load}
-        self.write(keys.LOAD_PROFILE, profile)
-        if peak.load < self.p.min_load:
-            return self.fail(f"no load found along the plate (peak {peak.load:.2f} px < "
-                             f"{self.p.min_load} px): the element never reached it")
-        best = np.r_[x0 + peak.position, pose[1:]]
+        outside = self.pose()  # beside the plate, foot on the ground
+        for attempt in range(self.p.max_regrasps + 1):
+            if attempt:
+                fault = yield from self.regrasp(outside, attempt)
+                if fault:
+                    return self.fail(f"element {element['id']}: re-grasp {attempt} failed: {fault}")
+            peak, problem, firmer_helps = yield from self.scan(element, plate)
+            if not problem:
+                break
+            if not firmer_helps:  # the arm stopped, or the plate was never touched
+                return self.fail(f"element {element['id']}: {problem}")
+        else:
+            tried = f" after {self.p.max_regrasps} firmer re-grasps" if self.p.max_regrasps else ""
+            return self.fail(f"element {element['id']}: {problem}{tried}; not placing it at a bad point "
+                             "(grasp firmer, or allow more 'max_regrasps')")
+        x0 = float(plate["origin"][0])
+        best = np.r_[x0 + peak.position, self.pose()[1:]]
         fault = yield from self.move(best, self.p.speed)
         if fault:
             return self.fail(fault)
@@ -88,5 +84,85 @@ class FindMaxLoad(ProgramSkill):
             return self.fail(fault)
         self.write(keys.BEST_POSE, best)
         self.write(keys.MEASURED_LOAD, peak.load)
-        self.feedback_message = f"max load {peak.load:.2f} px at {peak.position:.3f} m"
+        regrasps = f" after {attempt} re-grasp{'s' * (attempt > 1)}" if attempt else ""
+        self.feedback_message = f"max load {peak.load:.2f} px at {peak.position:.3f} m{regrasps}"
         return Status.SUCCESS
+
+    def scan(self, element: dict, plate: dict):
+        """Lift the foot, slide in and scan the span; returns (peak, problem, whether a firmer
+        grip could help), problem None for a trusted peak."""
+        x0, span = float(plate["origin"][0]), float(plate["span"])
+        start, end = (x0 + f * span for f in self.p.span)
+        pose = self.pose()
+        pose[2] += self.p.lift
+        fault = yield from self.move(pose, 0.01)
+        if fault:
+            return None, fault, False
+        f_ref = yield from self.mean_force(self.p.reference_ticks)
+
+        pose[0], pose[1] = start, plate["origin"][1]
+        self.feedback_message = "sliding in under the plate"
+        fault = yield from self.move(pose, 0.05)
+        if fault:
+            return None, fault, False
+
+        positions, loads, slipped = [], [], [0]
+
+        def sample() -> str | None:
+            left, right = self.tactile()
+            # The plate pushes the upright element down its axis (image x of both fingers).
+            positions.append(self.pose()[0] - x0)
+            loads.append(-(summed_force(left, right) - f_ref)[0])
+            slipped[0] += total_slip(left, right) > self.p.slip
+            self.feedback_message = f"scan at {positions[-1]:.3f} m, load {loads[-1]:.2f}"
+            if slipped[0] >= self.p.slip_ticks:
+                return f"the element slipped in the grip at {positions[-1]:.3f} m along the plate"
+            return None
+
+        # Twice the time the scan should take, and a margin for the controller to get going.
+        timeout = 2.0 * abs(end - start) / self.p.speed + 10.0
+        stopped = yield from self.move(np.r_[end, pose[1:]], self.p.speed, timeout, watch=sample)
+        slipping = slipped[0] >= self.p.slip_ticks
+        if stopped and not slipping or len(positions) < 5:
+            return None, stopped or "the scan ended at once", slipping
+        peak = locate_peak(positions, loads, self.p.smoothing, self.p.fit_half_width)
+        self.write(keys.LOAD_PROFILE, {
+            "plate": element["plate"], "position": np.array(positions), "load": np.array(loads),
+            "smoothed": peak.smoothed, "best_position": peak.position, "best_load": peak.load,
+            "clarity": peak.clarity, "grip_slipped": slipping})
+        if slipping:
+            return peak, stopped, True
+        if peak.load < self.p.min_load:
+            return peak, (f"no load found along the plate (peak {peak.load:.2f} px < {self.p.min_load} px): "
+                          "the element never reached it"), False
+        if peak.clarity < self.p.min_clarity:
+            return peak, (f"no clear maximum along the plate (peak {peak.clarity:.1f} times the load noise "
+                          f"above the rest of the profile, needs {self.p.min_clarity:g})"), True
+        return peak, None, False
+
+    def regrasp(self, outside: np.ndarray, attempt: int):
+        """Slide back out from under the plate, set the foot on the ground so it carries the
+        element, and close the fingers further with a higher force limit; None, or why not."""
+        self.feedback_message = f"re-grasp {attempt}: sliding out from under the plate"
+        out = self.pose()
+        out[1] = outside[1]
+        fault = yield from self.move(out, 0.05)
+        if fault:
+            return fault
+        f_ref = yield from self.mean_force(self.p.reference_ticks)
+        touched = []
+
+        def ground() -> str | None:
+            change = float(np.linalg.norm(summed_force(*self.tactile()) - f_ref))
+            if change > self.p.touch_eps:
+                touched.append(change)
+                return "foot on the ground"
+            return None
+
+        self.feedback_message = f"re-grasp {attempt}: setting the foot down"
+        fault = yield from self.move(out - [0.0, 0.0, 0.05, 0.0, 0.0, 0.0], 0.01, watch=ground)
+        if not touched:
+            return fault or "the foot did not touch the ground within 50 mm"
+        self.feedback_message = f"re-grasp {attempt}: closing with up to {self.p.regrasp_force:.0f} N"
+        speed = self.p.regrasp_squeeze / 0.5  # over half a second
+        return (yield from self.grip(self.gripper_width() - self.p.regrasp_squeeze, speed, self.p.regrasp_force))

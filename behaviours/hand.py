@@ -43,3 +43,9 @@ def object_angle(left: TactileState, right: TactileState) -> float | None:
 
 def object_area(left: TactileState, right: TactileState) -> float:
     return max(left.obj.area, right.obj.area)
+
+
+def grip_squeeze(left: TactileState, right: TactileState) -> float:
+    """The squeeze both pads feel along the closing axis (px): the common part of their normal
+    loads, which the hand force (their difference) cancels."""
+    return 0.5 * float(left.force[1] - right.force[1])

@@ -5,21 +5,30 @@ receive: L = 1 while the object both slips (the person moves it) and presses the
 change on enough markers): the fingers close with inertia and open again if the person pulls
 back; once the fingers stop on the object at the force limit it is grasped, and received when
 the person has let go (nothing slips for `settle` ticks).
-give: once the person tugs (force change on enough markers, or slip), L = -1 opens gently;
-done when the fingers are open and the object is gone.
+give: once the person tugs, L = -1 opens gently; done when the fingers are open and the object
+is gone. A tug is a change felt (force change on enough markers, or slip) while the force the
+object puts on the hand has turned away from straight down by more than `weight_angle`, or grows
+faster than `tug_rate`: a person pulling the object away. Weight added slowly (sand poured into a
+held box) pulls straight down and is not a tug: the skill keeps holding.
 Each wait on the person is bounded by `wait`: receive gives up when nothing is offered (or the
 fingers have not closed on the object) within `wait`, or the person does not let go within
-`wait` of the grasp; give gives up when the object is not taken within `wait`.
+`wait` of the grasp; give gives up when the object is not taken within `wait`, or slips out
+while it waits.
 """
 
 from __future__ import annotations
 
+import math
+from collections import deque
+
+import numpy as np
 from py_trees.common import Status
 
 from behaviours import keys
 from behaviours.base import Param, ProgramSkill
 from behaviours.control import ForceChangeDetector, LeakyIntegrator
-from behaviours.hand import object_area, total_slip
+from behaviours.geometry import rotation
+from behaviours.hand import hand_force, object_area, total_slip
 from behaviours.registry import register
 from perception.wrench import marker_forces
 
@@ -39,8 +48,14 @@ class Handover(ProgramSkill):
         "opening": Param("float", "give: how far to open beyond the holding width", 0.02, "m", min=0.001),
         "settle": Param("int", "receive: ticks without slip on the stopped gripper that mean it is ours", 10, min=1),
         "wait": Param("float", "give up when the person has not acted within this time", 15.0, "s", min=0.0),
+        "weight_angle": Param("float", "give: a force change within this angle of straight down is added "
+                              "weight, not a tug", 45.0, "deg", min=0.0, max=90.0),
+        "tug_rate": Param("float", "give: a force change growing faster than this is a tug whatever its "
+                          "direction", 3.0, "px/s", min=0.0),
+        "min_pull": Param("float", "give: least change of the hand force that counts as a pull", 0.1, "px", min=0.0),
     }
-    READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.GRIPPER_WIDTH, keys.GRIPPER_OBJECT)
+    READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.GRIPPER_WIDTH, keys.GRIPPER_OBJECT, keys.ROBOT_POSE)
+    RATE_TICKS = 3  # the growth of the pull is measured over this many ticks
 
     def _pressed(self, detector: ForceChangeDetector) -> bool:
         left, right = self.tactile()
@@ -88,10 +103,21 @@ class Handover(ProgramSkill):
         gripper = self.cell.gripper
         if object_area(*self.tactile()) <= 0.0:
             return self.fail("nothing in the gripper to give")
-        while not (self._pressed(detector) or total_slip(*self.tactile()) > self.p.slip):
+        f0, recent = self._pull(), deque(maxlen=self.RATE_TICKS + 1)
+        while True:
+            if object_area(*self.tactile()) <= 0.0:
+                return self.fail("the object slipped out while waiting for the person: grasp it firmer, "
+                                 "or hold it with 'hold'")
+            felt = self._pressed(detector) or total_slip(*self.tactile()) > self.p.slip
+            pull = self._pull() - f0
+            recent.append(float(np.linalg.norm(pull)))
+            kind = self._kind_of(pull, recent)
+            if felt and kind == "tug":
+                break
             if self.now() - start > self.p.wait:
                 return self.fail(f"no one took the object within {self.p.wait:.0f} s; still holding it")
-            self.feedback_message = f"waiting for the person to take it ({detector.changed} markers changed)"
+            self.feedback_message = (f"waiting for the person to take it ({detector.changed} markers changed"
+                                     f"{', weight added, not a tug' if felt and kind == 'weight' else ''})")
             yield
         hold_width = self.gripper_width()
         target = min(hold_width + self.p.opening, gripper.max_width)
@@ -104,3 +130,17 @@ class Handover(ProgramSkill):
             yield
         self.feedback_message = "given"
         return Status.SUCCESS
+
+    def _pull(self) -> np.ndarray:
+        """The force the object puts on the hand, in the base frame (px)."""
+        return rotation(self.pose()) @ hand_force(*self.tactile())
+
+    def _kind_of(self, pull: np.ndarray, recent: deque) -> str | None:
+        """'tug', 'weight', or None (no pull yet) for the change `pull` of the hand force since
+        the start, `recent` holding its last magnitudes (one per tick)."""
+        size = float(np.linalg.norm(pull))
+        if size < self.p.min_pull:
+            return None
+        rate = (recent[-1] - recent[0]) / (self.cell.clock.period * (len(recent) - 1)) if len(recent) > 1 else 0.0
+        downward = -pull[2] / size >= math.cos(math.radians(self.p.weight_angle))
+        return "weight" if downward and rate <= self.p.tug_rate else "tug"

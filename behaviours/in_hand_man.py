@@ -1,6 +1,7 @@
 """InHandMan: the original in-hand pivot (inhand): open a step at a time until the object
 slips, close a step while it slips, and finish when it has turned by the target angle,
-closing one more step."""
+closing one more step. A turn seen without any slip felt is not a pivot in the fingers (the
+view is wrong, or the whole hand turned): the skill then fails instead of succeeding."""
 
 from __future__ import annotations
 
@@ -34,7 +35,7 @@ class InHandMan(ProgramSkill):
         theta0 = object_angle(*self.tactile())
         if theta0 is None:
             return self.fail("no object seen between the fingers to pivot")
-        width0, turned, start = self.gripper_width(), 0.0, self.now()
+        width0, turned, start, slipped = self.gripper_width(), 0.0, self.now(), False
         speed = self.p.step / self.cell.clock.period
         while turned <= self.p.target:
             left, right = self.tactile()
@@ -43,6 +44,7 @@ class InHandMan(ProgramSkill):
                 return self.fail(f"the object fell out after turning {turned:.0f} deg: use a smaller 'step'")
             turned = math.degrees(abs(theta - theta0))
             slipping = total_slip(left, right) >= self.p.slip
+            slipped = slipped or slipping
             width = self.gripper_width() + (-self.p.step if slipping else self.p.step)
             if width > width0 + self.p.opening:
                 return self.fail(f"opened {self.p.opening * 1000:.1f} mm and the object did not turn: "
@@ -54,6 +56,10 @@ class InHandMan(ProgramSkill):
             gripper.move(width, speed, self.p.force)
             self.feedback_message = f"turned {turned:.1f} deg, {'closing' if slipping else 'opening'}"
             yield
+        if not slipped:
+            gripper.stop()
+            return self.fail(f"the view says {turned:.0f} deg but no slip was felt: the object did not "
+                             "pivot in the fingers")
         gripper.move(self.gripper_width() - self.p.step, speed, self.p.force)
         yield
         self.write(keys.OBJECT_ANGLE, turned)

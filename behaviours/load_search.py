@@ -1,6 +1,7 @@
 """Peak of a noisy load profile from a continuous scan: smooth, take the best sample, then fit
 a local quadratic around it (robust under noise, where a golden-section search over single noisy
-samples is not)."""
+samples is not); and how clearly the profile peaks, so a scan that found no real maximum is not
+trusted."""
 
 from __future__ import annotations
 
@@ -16,6 +17,14 @@ class PeakEstimate:
     sample_position: float  # position of the best smoothed sample
     smoothed: np.ndarray
     coefficients: np.ndarray | None  # quadratic a x^2 + b x + c around the peak, if concave
+    noise: float  # std of the samples about the smoothed profile
+    prominence: float  # smoothed peak above the higher of the lowest points on either side
+
+    @property
+    def clarity(self) -> float:
+        """Prominence in units of the sample noise: how clearly the profile peaks inside the
+        scan (0 when the best sample is at an end of the scan, so the maximum may lie beyond)."""
+        return self.prominence / max(self.noise, 1e-9)
 
 
 def moving_average(y: np.ndarray, n: int) -> np.ndarray:
@@ -40,6 +49,8 @@ def locate_peak(x, y, smooth_window: float, fit_half_width: float) -> PeakEstima
     n = max(1, int(round(smooth_window / spacing))) if spacing > 0 else 1
     smoothed = moving_average(y, n)
     i = int(np.argmax(smoothed))
+    noise = float(np.std(y - smoothed))
+    prominence = float(smoothed[i] - max(smoothed[: i + 1].min(), smoothed[i:].min()))
     near = np.abs(x - x[i]) <= fit_half_width
     if near.sum() >= 5:
         coeffs = np.polyfit(x[near] - x[i], y[near], 2)
@@ -48,5 +59,5 @@ def locate_peak(x, y, smooth_window: float, fit_half_width: float) -> PeakEstima
             if abs(vertex) <= fit_half_width:
                 best = x[i] + vertex
                 return PeakEstimate(float(best), float(np.polyval(coeffs, vertex)), float(x[i]),
-                                    smoothed, coeffs)
-    return PeakEstimate(float(x[i]), float(smoothed[i]), float(x[i]), smoothed, None)
+                                    smoothed, coeffs, noise, prominence)
+    return PeakEstimate(float(x[i]), float(smoothed[i]), float(x[i]), smoothed, None, noise, prominence)

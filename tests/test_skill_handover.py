@@ -98,3 +98,62 @@ def test_give_reports_a_person_who_never_takes_it_back():
     assert h.run_until_done(1500).name == "FAILURE"
     assert "no one took the object" in h.feedback("handover_demo/give")
     assert cell.world.metrics()["bottle"] == "held by the robot"
+
+
+def weight_then(h, then: dict | None = None) -> callable:
+    """A held object getting slowly heavier (at the home pose, shear along image y pulls the hand
+    down), slipping a little, then, from tick 40, `then`."""
+    def script(tick, t):
+        if then is not None and tick >= 40:
+            return then
+        extra = min(tick, 30) * 0.1  # N of sand per tick, up to 3 N
+        return {f: touch(f, normal=20.0, shear=(0.0, 1.5 + extra), area=0.3, slip=0.05 if tick > 10 else 0.0)
+                for f in ("left", "right")}
+    return script
+
+
+def test_give_does_not_take_added_weight_for_a_tug():
+    h = one_skill("{mode: give, wait: 2.0}", gripper_width=0.045, object_width=0.05)
+    h.script(weight_then(h))
+    h.tick(30)
+    assert h.status("s") == "RUNNING" and "weight added, not a tug" in h.feedback("s")
+    assert not h.gripper.commands_named("move")  # still holding
+    assert h.run_until_done(100).name == "FAILURE" and "no one took the object" in h.feedback("s")
+
+
+def test_give_opens_on_a_tug_after_weight_was_added():
+    tug = {f: touch(f, normal=20.0, shear=(0.0, -1.0), area=0.3, slip=0.05) for f in ("left", "right")}
+    h = one_skill("{mode: give}", gripper_width=0.045, object_width=0.05)
+    h.script(weight_then(h, tug))
+    h.tick(39)
+    assert not h.gripper.commands_named("move")  # 3 N of weight added by now
+    h.tick(3)
+    assert h.gripper.commands_named("move")  # the upward pull opens the fingers
+
+
+def test_give_fails_when_the_object_slips_out_under_weight():
+    h = one_skill("{mode: give}", gripper_width=0.045, object_width=0.05)
+    h.script(weight_then(h, EMPTY))
+    assert h.run_until_done(100).name == "FAILURE"
+    assert "slipped out while waiting" in h.feedback("s") and not h.gripper.commands_named("move")
+
+
+GIVE_IN_HOLD_SCENE = """version: 1
+name: t
+cell: {tick_hz: 30, scene: hold}
+root:
+  sequence: s
+  memory: true
+  children:
+    - {skill: gentle_grasp, name: grasp, params: {squeeze: 0.002}}
+    - {skill: move_to, name: lift, params: {offset: [0.0, 0.0, 0.05], speed: 0.05}}
+    - {skill: handover, name: give, params: {mode: give, wait: 8.0}}
+"""
+
+
+def test_sand_poured_into_a_held_box_is_not_a_tug():
+    cell = load_cell("sim", 30, "hold", {})
+    h = TreeHarness.from_text(GIVE_IN_HOLD_SCENE, cell=cell)
+    assert h.run_until_done(1000).name == "FAILURE"
+    assert "no one took the object within 8 s; still holding it" in h.feedback("s/give")
+    assert not cell.world.metrics()["box dropped"]

@@ -67,3 +67,27 @@ def test_hold_keeps_a_box_being_filled_which_slips_out_without_it():
     assert metrics["grip force (N)"] * 2 * 0.8 > metrics["load on the grip (N)"]  # tightened enough
     status, metrics = run_scene(100.0)  # never reacts
     assert status == "FAILURE" and metrics["box dropped"]
+
+
+def test_hold_fails_when_the_object_keeps_slipping_at_the_force_limit():
+    """The fingers stop closing once the squeeze reaches the force limit (40 N on a 40 mm object
+    with 5000 N/m gels: at 32 mm); slip on every tick after that fails the hold."""
+    h = one_skill("{duration: 0, limit_steps: 10}", gripper_width=0.034, object_width=0.04)
+    h.script(lambda tick, t: held(0.1))
+    ticks_at_limit = None
+    while h.tick().name == "RUNNING":
+        if ticks_at_limit is None and h.gripper.object_detected():
+            ticks_at_limit = h.ticks
+        assert h.ticks < 100
+    assert h.status("s") == "FAILURE"
+    assert "keeps slipping with the gripper at its force limit (40 N, 32.0 mm)" in h.feedback("s")
+    assert h.ticks - ticks_at_limit == pytest.approx(10, abs=2)  # limit_steps triggers that did not close
+    assert h.gripper.commands[-1].name == "stop"
+
+
+def test_hold_fails_in_the_scene_when_the_load_beats_the_gripper():
+    text = (TREES / "hold.yaml").read_text().replace("{duration: 8.0}", "{duration: 8.0, force: 15.0}")
+    cell = load_cell("sim", 30, "hold", {"extra_load": 30.0})
+    h = TreeHarness.from_text(text, cell=cell)
+    assert h.run_until_done(1000).name == "FAILURE"
+    assert "force limit (15 N" in h.feedback("hold_demo/hold")

@@ -60,3 +60,17 @@ def test_in_hand_man_pivots_the_bar_in_the_scene():
     assert TreeHarness.from_file("trees/in_hand_man.yaml", cell=cell).run_until_done(1000).name == "SUCCESS"
     m = cell.world.metrics()
     assert m["turned in the hand (deg)"] == pytest.approx(21.0, abs=3.0) and not m["stick dropped"]
+
+
+def test_in_hand_man_needs_slip_felt_to_succeed():
+    """The view turns 1 deg per tick but the pads never feel slip: not a pivot in the fingers."""
+    h = one_skill("{target: 10}")
+    turned = [0.0]
+
+    def script(tick, t):
+        turned[0] += 1.0
+        return {f: touch(f, normal=10.0, area=0.25, orientation=s * math.radians(turned[0]))
+                for f, s in (("left", -1.0), ("right", 1.0))}
+    h.script(script)
+    assert h.run_until_done(100).name == "FAILURE"
+    assert "no slip was felt" in h.feedback("s") and h.blackboard("/task/object_angle") is None

@@ -1,5 +1,6 @@
-"""object_track: the proximity-vision rule tick by tick, and on the FollowMe scene, where it
-follows along the pads but is blind along the fingers' closing axis."""
+"""object_track: the proximity-vision rules tick by tick (centroid along the pads, the paper's
+area rule with Delta and M_eps along the closing axis), and on the FollowMe scene along every
+axis."""
 
 from __future__ import annotations
 
@@ -46,15 +47,38 @@ def test_object_track_halted_stops_the_arm():
     assert not h.arm.is_moving()
 
 
-def followme(axis: str) -> dict:
-    cell = load_cell("sim", 30, "followme", {"axis": axis, "direction": "pull"})
+def pressed(left_area: float) -> dict:
+    """The block pressed into the left pad (bigger there) or off it (smaller)."""
+    return {"left": touch("left", normal=5.0, area=left_area), "right": touch("right", normal=5.0, area=0.3)}
+
+
+def test_object_track_steps_delta_along_the_closing_axis_by_the_left_pads_area():
+    h = one_skill("{duration: 1.0, delta: 0.001, m_eps: 0.3, area_band: 0.05}")
+    h.script(lambda tick, t: pressed(0.3 if tick < 5 else 0.2 if tick < 15 else 0.4))
+    assert h.run_until_done(100).name == "SUCCESS"
+    tool_y = -np.array([c.args[0][1] for c in h.arm.commands_named("speed_linear")])  # tool y = base -y
+    assert np.allclose(tool_y[:4], 0.0)  # M_t = M_eps: inside the dead band, still
+    assert np.allclose(tool_y[6:14], 0.001 * 30)  # M_t <= M_eps: off the left pad, +Delta per tick
+    assert np.allclose(tool_y[16:], -0.001 * 30)  # M_t > M_eps: into the left pad, -Delta per tick
+
+
+def test_object_track_takes_m_eps_from_the_start():
+    h = one_skill("{duration: 0.5}")
+    h.script(lambda tick, t: pressed(0.25 if tick < 3 else 0.2))
+    assert h.run_until_done(100).name == "SUCCESS"
+    assert -h.arm.commands_named("speed_linear")[-1].args[0][1] == pytest.approx(0.0015 * 30)
+
+
+def followme(axis: str, direction: str = "pull") -> dict:
+    cell = load_cell("sim", 30, "followme", {"axis": axis, "direction": direction})
     h = TreeHarness.from_file("trees/object_track.yaml", cell=cell)
     assert h.run_until_done(1000).name == "SUCCESS"
     return cell.world.metrics()
 
 
-def test_object_track_follows_along_the_pads_but_not_along_the_closing_axis():
-    assert followme("x")["tracking error final (mm)"] < 5.0
-    blind = followme("y")
-    assert blind["tracking error final (mm)"] > 100.0  # the person led 120 mm; the view never changed
-    assert blind["peak force on the block (N)"] == pytest.approx(25.0)  # the person pushed in vain
+@pytest.mark.parametrize("direction", ["pull", "push"])
+def test_object_track_follows_along_the_pads_and_the_closing_axis(direction):
+    assert followme("x", direction)["tracking error final (mm)"] < 5.0
+    closing = followme("y", direction)  # the person leads 120 mm across the pads
+    assert closing["tracking error rms (mm)"] < 15.0 and closing["tracking error final (mm)"] < 10.0
+    assert closing["peak force on the block (N)"] < 10.0 and not closing["block lost"]

@@ -206,6 +206,86 @@ def test_find_max_load_halted_mid_scan_stops_the_arm():
     assert not h.arm.is_moving() and h.arm.commands[-1].name == "stop"
 
 
+def weak_grip_plate(h, rng, capacity: float = 8.0, firm_width: float = 0.03):
+    """The load under P1 as in `scripted_plate`, felt through a grip that carries at most
+    `capacity` px until the fingers close below `firm_width`: beyond it the element slides
+    (slip) and the fingers feel only the capacity. The ground is at the starting height."""
+    x0 = PLATES["P1"]["origin"][0]
+
+    def script(tick, t):
+        pose = h.arm.pose()
+        under = abs(pose[1] - PLATES["P1"]["origin"][1]) < 0.1
+        load = max(0.0, 20.0 * (1 - ((pose[0] - x0 - 0.57) / 0.35) ** 2)) if under else 0.0
+        cap = capacity if h.gripper.width() > firm_width else 100.0
+        ground = max(0.0, 0.5 - pose[2]) * 2000.0  # the foot pressed into the ground
+        return axial(min(load, cap) - ground + rng.normal(0, 0.4), slip=0.05 if load > cap else 0.0)
+    return script
+
+
+def find_load_on_weak_grip(params: str) -> TreeHarness:
+    h = one_skill("find_max_load", params, cell=mock_cell(gripper_width=0.035, object_width=0.04))
+    h.set("/task/element", E1)
+    h.set("/task/plates", PLATES)
+    return h.script(weak_grip_plate(h, np.random.default_rng(1)))
+
+
+def test_find_max_load_regrasps_firmer_when_the_grip_slips_and_rescans():
+    h = find_load_on_weak_grip("{speed: 0.05, regrasp_squeeze: 0.01, regrasp_force: 80.0}")
+    slipped_at = None
+    while h.tick().name == "RUNNING":
+        if slipped_at is None and "re-grasp 1" in h.feedback("s"):
+            slipped_at = h.arm.pose()[0] - PLATES["P1"]["origin"][0]
+            assert h.blackboard("/task/load_profile")["grip_slipped"]
+        assert h.ticks < 4000
+    assert h.status("s") == "SUCCESS", h.feedback("s")
+    assert slipped_at is not None and slipped_at < 0.4  # stopped as soon as it slipped, well before the peak
+    regrasp = h.gripper.commands_named("move")[-1]
+    assert regrasp.args[0] == pytest.approx(0.025) and regrasp.args[2] == 80.0  # firmer: further, more force
+    assert h.arm.pose()[2] == pytest.approx(0.5, abs=0.002)  # foot set down on the ground it found
+    best = h.blackboard("/task/best_pose")[0] - PLATES["P1"]["origin"][0]
+    assert best == pytest.approx(0.57, abs=0.02) and "after 1 re-grasp" in h.feedback("s")
+    assert not h.blackboard("/task/load_profile")["grip_slipped"]
+
+
+def test_find_max_load_fails_naming_the_element_when_the_grip_keeps_slipping():
+    h = find_load_on_weak_grip("{speed: 0.05, max_regrasps: 1, regrasp_squeeze: 0.001}")  # still too weak
+    assert h.run_until_done(4000).name == "FAILURE"
+    assert h.feedback("s").startswith("element E1: the element slipped in the grip")
+    assert "after 1 firmer re-grasps; not placing it at a bad point" in h.feedback("s")
+    assert h.blackboard("/task/best_pose") is None and not h.arm.is_moving()
+
+
+def test_find_max_load_without_regrasps_fails_at_the_first_slip():
+    h = find_load_on_weak_grip("{speed: 0.05, max_regrasps: 0}")
+    assert h.run_until_done(4000).name == "FAILURE"
+    assert "element E1: the element slipped" in h.feedback("s")
+    assert [c.args[0] for c in h.gripper.commands_named("move")] == []  # no re-grasp tried
+
+
+def test_find_max_load_does_not_trust_a_peak_at_the_end_of_the_scan():
+    h = one_skill("find_max_load", "{speed: 0.05, max_regrasps: 0}")
+    h.set("/task/element", E1)
+    h.set("/task/plates", PLATES)
+    h.script(scripted_plate(h, 0.95, np.random.default_rng(0)))  # the maximum lies beyond the scan
+    assert h.run_until_done(3000).name == "FAILURE"
+    assert "element E1: no clear maximum along the plate" in h.feedback("s")
+    assert h.blackboard("/task/load_profile")["clarity"] < 5.0
+
+
+def test_find_max_load_does_not_trust_a_flat_profile():
+    h = one_skill("find_max_load", "{speed: 0.05, max_regrasps: 0}")
+    h.set("/task/element", E1)
+    h.set("/task/plates", PLATES)
+    rng = np.random.default_rng(2)
+
+    def flat(tick, t):  # 6 px all along the plate, nothing beside it
+        under = abs(h.arm.pose()[1] - PLATES["P1"]["origin"][1]) < 0.1
+        return axial((6.0 if under else 0.0) + rng.normal(0, 0.4))
+    h.script(flat)
+    assert h.run_until_done(3000).name == "FAILURE"
+    assert "no clear maximum" in h.feedback("s")
+
+
 # ---- place_element -------------------------------------------------------------------------------
 def test_place_opens_with_the_leaky_integrator_and_records_the_pose():
     h = one_skill("place_element", "{alpha: 0.8, opening: 0.02}")
@@ -228,3 +308,80 @@ def test_place_reports_a_fallen_element():
     h.set("/task/element", E1)
     assert h.run_until_done(500).name == "FAILURE"
     assert "it fell" in h.feedback("s")
+
+
+# ---- collisions in the assembly scene ----------------------------------------------------------
+CARRY = """version: 1
+name: carry
+root:
+  sequence: s
+  memory: true
+  children:
+    - {skill: gentle_grasp, name: grasp}
+    - {skill: move_to, name: lift, params: {offset: [0.0, 0.0, 0.1]}}
+    - {skill: move_to, name: carry, params: {offset: [-0.5, 0.0, 0.0], speed: 0.1}}
+"""
+
+
+def carrying_e2_past_e1(e1_y: float):
+    """E2 grasped at its middle and carried 0.5 m along -x, with E1 standing at `e1_y`, 0.25 m
+    along its path."""
+    cell = sim_cell()
+    world = cell.world
+    e1, e2 = world.elements["E1"], world.elements["E2"]
+    world.arm._pose[:3] = e2.pose[:3]  # the fingers open around E2's middle
+    e1.state = "standing"
+    e1.pose = np.array([e2.pose[0] - 0.25, e1_y, e1.length / 2.0, 0.0, -np.pi / 2, 0.0])
+    h = TreeHarness.from_text(CARRY, cell=cell)
+    return h, world, h.run_until_done(2000)
+
+
+def test_a_held_element_cannot_pass_through_a_placed_one():
+    h, world, status = carrying_e2_past_e1(e1_y=-0.30)
+    e1, e2 = world.elements["E1"], world.elements["E2"]
+    assert status.name == "FAILURE" and "force limit" in h.feedback("s/carry")
+    assert not h.arm.is_moving() and world.metrics()["collisions"].startswith("E2 hit E1")
+    assert e1.state == "standing" and e1.pose[1] == -0.30  # E1 was neither grasped nor moved
+    assert e2.state == "held"
+    tip = e2.pose[0] - e2.length / 2.0  # E2's end towards E1 stopped at E1's face
+    assert tip > e1.pose[0] + e1.width / 2.0 - 0.002
+
+
+def test_carrying_beside_a_placed_element_goes_on():
+    _, world, status = carrying_e2_past_e1(e1_y=-0.30 + 0.05)  # 10 mm clear of E2's side
+    assert status.name == "SUCCESS" and "collisions" not in world.metrics()
+    assert world.elements["E1"].state == "standing" and world.elements["E2"].state == "held"
+
+
+# ---- a plate heavier than the default grasp holds ------------------------------------------------
+TREES = Path(__file__).resolve().parents[1] / "trees"
+
+
+def prop_heavy_plate(tmp_path, regrasps: int):
+    """Build only E3 of trees/assembly_heavy.yaml: its plate P3 loads the prop with ~64 N."""
+    text = ((TREES / "assembly_heavy.yaml").read_text()
+            .replace("design/", f"{TREES}/design/").replace("subtrees/", f"{TREES}/subtrees/")
+            .replace("for_each_element: elements", "for_each_element: elements\n          elements: [E3]")
+            .replace("{scan_step: 0.002}", f"{{scan_step: 0.002, regrasps: {regrasps}}}"))
+    (tmp_path / "heavy.yaml").write_text(text)
+    design = DesignModel.load(TREES / "design" / "three_bays.json")
+    cell = load_cell("sim", 30, "assembly", design.scene_args())
+    h = TreeHarness.from_file(tmp_path / "heavy.yaml", cell=cell, design=design)
+    return h, cell.world, h.run_until_done(6000)
+
+
+def test_a_heavy_plate_is_propped_at_its_maximum_after_a_firmer_regrasp(tmp_path):
+    h, world, status = prop_heavy_plate(tmp_path, regrasps=1)
+    assert status.name == "SUCCESS"
+    assert "after 1 re-grasp" in h.feedback("main/assemble/elements/build/prop/find_load")
+    truth = world.truth()["E3"]
+    assert truth["true_max_load_N"] > 60.0
+    assert abs(truth["position"] - truth["true_best_position"]) < 0.01 and truth["regret"] < 0.001
+
+
+def test_a_heavy_plate_fails_naming_the_element_without_a_regrasp(tmp_path):
+    h, world, status = prop_heavy_plate(tmp_path, regrasps=0)
+    assert status.name == "FAILURE"
+    assert h.feedback("main/assemble/elements/build/prop/find_load").startswith(
+        "element E3: the element slipped in the grip")
+    assert world.elements["E3"].state == "held" and "E3" not in world.truth()  # never placed

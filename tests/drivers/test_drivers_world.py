@@ -126,3 +126,19 @@ def test_assembly_truth_is_per_standing_element_with_its_true_load_curve():
     curve = t["true_load_curve"]
     assert curve["load_N"].max() == pytest.approx(r_best, rel=1e-4)
     assert json.dumps({k: v for k, v in t.items() if k != "true_load_curve"})  # plain numbers
+
+
+def test_the_fingers_grasp_only_the_element_they_hold():
+    """With E2 in the hand, E1 standing across the fingers is not grasped as well."""
+    arm, gripper = KinematicArm(SimClock(1 / 30), HOME), SimGripper(gel_stiffness=5000.0)
+    world = SCENES["assembly"](arm, gripper, _scene_args(), {}, 0)
+    e1, e2 = world.elements["E1"], world.elements["E2"]
+    arm._pose[:3] = e2.pose[:3]
+    gripper.move(0.0, speed=0.1, force=20.0)
+    for _ in range(30):
+        world.step(1 / 30)
+    assert e2.state == "held"
+    e1.state = "standing"
+    e1.pose = np.array([*arm.pose()[:3], 0.0, -np.pi / 2, 0.0])  # upright, its middle between the fingers
+    world.step(1 / 30)
+    assert e1.state == "standing" and e2.state == "held"

@@ -5,6 +5,11 @@ Frames: base frame z up, ground at z = 0. The gripper closes along the tool y ax
 finger's image x runs along the tool x axis (mirrored on the left finger), image y along the
 tool z axis. A held element carries the plate load R(a) through the grip (the gel is part of
 the series compliance k), so the fingers feel it as shear.
+
+Elements are solid: a held element that would pass through another one is held back where it
+touched, so the hand drags it over the pads against a stiff contact (the fingers feel it, and
+the arm's force limit stops the motion); the fingers grasp only the element between them, never
+a second one while they hold the first.
 """
 
 from __future__ import annotations
@@ -61,6 +66,27 @@ class Element:
     def is_upright(self, tol: float = 0.1) -> bool:
         return abs(self.rotation()[2, 0]) > 1.0 - tol
 
+    def core(self, pose: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """End points of the axis of the capsule standing in for the element (radius half its
+        width, as long as the element) were its centre at `pose` (default: where it is)."""
+        pose = self.pose if pose is None else pose
+        axis = rotvec_to_matrix(pose[3:])[:, 0] * max(self.length / 2.0 - self.width / 2.0, 0.0)
+        return pose[:3] - axis, pose[:3] + axis
+
+
+def segment_distance(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarray) -> float:
+    """Least distance between the segments p0-p1 and q0-q1 (clamped closest points)."""
+    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
+    a, e, f = d1 @ d1, d2 @ d2, d2 @ r
+    c, b = d1 @ r, d1 @ d2
+    denom = a * e - b * b
+    s = float(np.clip((b * f - c * e) / denom, 0.0, 1.0)) if denom > 1e-12 else 0.0
+    t = (b * s + f) / e if e > 1e-12 else 0.0
+    if t < 0.0 or t > 1.0:
+        t = float(np.clip(t, 0.0, 1.0))
+        s = float(np.clip((b * t - c) / a, 0.0, 1.0)) if a > 1e-12 else 0.0
+    return float(np.linalg.norm((p0 + d1 * s) - (q0 + d2 * t)))
+
 
 @dataclass
 class Plate:
@@ -88,6 +114,7 @@ class SceneConfig:
     view_half: float = 0.015  # m, half the fingertip camera window along the tool x axis
     finger_reach: float = 0.03  # m, fingertip length along the tool z axis
     force_noise: float = 0.02  # std of load noise, share of the plate's true maximum
+    contact_stiffness: float = 20000.0  # N/m, a held element pressed against another one
     seed: int = 0
 
 
@@ -104,6 +131,9 @@ class AssemblyScene(Scene):
         self._loads: dict[str, float] = {}  # element id -> true load it carries now (N)
         self._slip = 0.0
         self._noise_scale: dict[str, float] = {}  # plate id -> load noise std (N)
+        self._contact = np.zeros(3)  # N, another element pushing back on the held one
+        self.collisions: list[str] = []  # "E2 hit E1 at t s", in order
+        self._t = 0.0
         self._settle(homogeneous(self.arm.pose()))
 
     # ----------------------------------------------------------------------------------
@@ -114,10 +144,11 @@ class AssemblyScene(Scene):
         return None
 
     def _between_fingers(self, tool: np.ndarray) -> Element | None:
-        """The element whose cross-section is between the open fingertips, if any."""
+        """The element held, else the one whose cross-section is between the open fingertips."""
+        held = self.held()
+        if held is not None:
+            return held
         for e in self.elements.values():
-            if e.state == "held":
-                return e
             local = e.inverse() @ tool[:, 3]
             tool_y_in_e = e.rotation().T @ tool[:3, 1]
             across = abs(tool_y_in_e[1]) > 0.9  # fingers close across the element width
@@ -143,11 +174,35 @@ class AssemblyScene(Scene):
         if held is not None and self.gripper.squeeze_force() <= 0.0:
             self._release(held)
         elif held is not None:
-            held.pose = pose_of(tool @ held.grasp)
-            self._update_slip(held, dt, tool)
+            self._carry(held, pose_of(tool @ held.grasp))
+            if self._contact.any():
+                self._slip = 0.3  # the hand drags the held-back element over the pads
+            else:
+                self._update_slip(held, dt, tool)
         else:
             self._slip = 0.0
+        self._t += dt
         self._settle(tool)
+
+    def _carry(self, e: Element, pose: np.ndarray) -> None:
+        """Move the held element to `pose`, unless another element is in the way: then it stays
+        where it touched, pressed back with the contact stiffness by how far the hand went on."""
+        blocker = self._obstacle(e, pose)
+        if blocker is None:
+            e.pose = pose
+            self._contact = np.zeros(3)
+            return
+        if not self._contact.any():
+            self.collisions.append(f"{e.id} hit {blocker.id} at {self._t:.1f} s")
+        self._contact = self.config.contact_stiffness * (e.pose[:3] - pose[:3])
+
+    def _obstacle(self, e: Element, pose: np.ndarray) -> Element | None:
+        """Another element that `e` would overlap at `pose` (their capsules intersect), if any."""
+        core = e.core(pose)
+        for other in self.elements.values():
+            if other is not e and segment_distance(*core, *other.core()) < (e.width + other.width) / 2.0:
+                return other
+        return None
 
     def _settle(self, tool: np.ndarray) -> None:
         """After a step: what is between the fingers and the (noisy) load the grip carries."""
@@ -180,6 +235,8 @@ class AssemblyScene(Scene):
         """Net force (base frame, N) the ground, the plates and gravity put on a held element."""
         bottom, top = e.ends()
         f = np.array([0.0, 0.0, -e.mass * GRAVITY])
+        if e.state == "held":
+            f += self._contact
         if bottom[2] < 0.0:
             f[2] += self.config.ground_stiffness * -bottom[2]
         load = self.plate_load(e, top)
@@ -261,6 +318,10 @@ class AssemblyScene(Scene):
             out[finger] = FingerContact(normal, shear, 0.0, None, self._view(e, tool, side, local),
                                         self._slip)
         return out
+
+    def metrics(self) -> dict:
+        """The collisions between elements, when there were any."""
+        return {"collisions": "; ".join(self.collisions)} if self.collisions else {}
 
     def truth(self) -> dict[str, dict]:
         """Per element standing under a plate: where it props the plate against the true

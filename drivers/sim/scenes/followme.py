@@ -4,7 +4,9 @@ minimum-jerk path and holds it there. The person's arm is a spring (stiffness `h
 force capped at `max_force`) pulling the block towards the scripted path; the block reaches the
 hand through the gel (elastic shear, then sliding beyond friction) and, along the closing axis,
 through the pads' normal stiffness. The cameras see the block shift along the pads (centroid,
-with noise) but not along the closing axis: the pads touch it, so the view does not change.
+with noise); along the closing axis the pads touch it, so it cannot shift in the view, but
+pressed harder into one pad it flattens more of that gel: the area a pad sees grows with its
+normal load as a Hertz contact's does (load^(2/3)).
 """
 
 from __future__ import annotations
@@ -118,9 +120,18 @@ class FollowMeScene(Scene):
         if self._grasped_at is None:
             return self._open_contacts()
         centroid = self._offset / (2 * self.view_half) + self._rng.normal(0.0, self.vision_noise, 2)
-        views = (pad_view(-1.0, self.area, centroid), pad_view(1.0, self.area, centroid))
+        normals = self.normals()
+        views = tuple(pad_view(side, self.pressed_area(normal), centroid) for side, normal in zip((-1.0, 1.0), normals))
         slip = slip_signal(self._seen_speed, self.area, self._dt)
-        return pad_contacts(self.normals(), self._force, 0.0, views, slip)
+        return pad_contacts(normals, self._force, 0.0, views, slip)
+
+    def pressed_area(self, normal: float) -> float:
+        """Share of a pad's image the block covers under `normal` N: `area` at the grasp's own
+        squeeze, growing as load^(2/3), down to a fifth when the block barely touches."""
+        squeeze = self.gripper.squeeze_force()
+        if squeeze <= 0.0:
+            return self.area
+        return self.area * min(max((max(normal, 0.0) / squeeze) ** (2.0 / 3.0), 0.2), 1.0 / self.area)
 
     def _open_contacts(self):
         """Before the grasp: the block is seen between the open fingers, nothing touches."""

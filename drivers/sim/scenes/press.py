@@ -6,7 +6,8 @@ learned force model is trained on.
 The pads show that load as shear with the partial-slip softening of a Hertz-Mindlin contact:
 as the load nears the grip's friction capacity the gel shears more per newton, so the marker
 field is not linear in the force (one reason to learn the mapping). Past the capacity the stick
-slides up in the grip.
+slides up in the grip. Let go (no squeeze left), the stick stays upright in its holder, resting
+on the scale with its own weight, between the open fingers.
 """
 
 from __future__ import annotations
@@ -52,6 +53,7 @@ class PressScene(Scene):
         self._start = start[:3]
         self._scale_z = start[2] - self.length - self.scale_gap  # tool z points down at the start
         self.held = False
+        self.released = False
         self.force = 0.0  # N the scale pushes the stick up with
         self._load = np.zeros(3)
 
@@ -64,6 +66,10 @@ class PressScene(Scene):
         squeeze = step_hand(self.arm, self.gripper, self.width, dt)
         if not self.held:
             self.held = picked_up(self.arm, self._start, squeeze)
+            return
+        if self.released or squeeze <= 0.0:
+            self.released = True
+            self.force, self._load, self.grip.speed = self.mass * GRAVITY, np.zeros(3), 0.0
             return
         self.force = max(0.0, self.contact_stiffness * (self._scale_z - self.tip()[2]))
         self._load = tool_rotation(self.arm).T @ np.array([0.0, 0.0, self.force - self.mass * GRAVITY])
@@ -87,8 +93,9 @@ class PressScene(Scene):
         return {"scale_force": {"unit": "N", "noise_std": self.scale_noise, "resolution": 0.01}}
 
     def metrics(self) -> dict:
-        return {"force on the scale (N)": round(self.force, 3),
-                "stick slid in the grip (mm)": round(float(abs(self.grip.slid[1])) * 1000, 2)}
+        out = {"force on the scale (N)": round(self.force, 3),
+               "stick slid in the grip (mm)": round(float(abs(self.grip.slid[1])) * 1000, 2)}
+        return {**out, "stick": "released, resting on the scale"} if self.released else out
 
 
 def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> PressScene:
