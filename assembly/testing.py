@@ -30,6 +30,7 @@ from assembly.loader import BuiltTree, build, load_tree
 from assembly.runner import Runner
 from drivers.cell import Cell
 from drivers.clock import SimClock
+from drivers.safe_gripper import SafeGripper
 from drivers.safety import SafeArm, SafetyLimits
 from drivers.sim.devices.arm import KinematicArm
 from drivers.sim.devices.gripper import SimGripper
@@ -115,14 +116,14 @@ class _MockWorld(Scene):
 
 def mock_cell(tick_hz: float = 30.0, home=HOME, gripper_width: float = 0.085,
               object_width: float | None = None, limits: SafetyLimits | None = None) -> Cell:
-    """A cell with a kinematic arm and gripper that record commands and perceive nothing;
-    `object_width` puts an object of that width between the fingers."""
+    """A cell with a kinematic arm and gripper, both behind the real safety layer, that record
+    commands and perceive nothing; `object_width` puts an object of that width between the fingers."""
     clock = SimClock(1.0 / tick_hz)
     raw_arm = KinematicArm(clock, home)
     raw_gripper = SimGripper(width=gripper_width, gel_stiffness=5000.0)
     raw_gripper.object_width = object_width
     arm = RecordingArm(SafeArm(raw_arm, limits or SafetyLimits(), clock), clock)
-    gripper = RecordingGripper(raw_gripper, clock)
+    gripper = RecordingGripper(SafeGripper(raw_gripper), clock)
     empty = {f: touch(f) for f in FINGERS}
     return Cell("mock", arm, gripper, clock, lambda: empty, world=_MockWorld(raw_arm, raw_gripper))
 
@@ -157,12 +158,12 @@ class TreeHarness:
     @classmethod
     def from_text(cls, text: str, cell: Cell | None = None, design: DesignModel | None = None,
                   name: str = "<test tree>") -> "TreeHarness":
-        return cls.load(load_tree(text=text, name=name), cell, design)
+        return cls.load(load_tree(text=text, name=name, dataflow=False), cell, design)
 
     @classmethod
     def from_file(cls, path: str | Path, cell: Cell | None = None,
                   design: DesignModel | None = None) -> "TreeHarness":
-        return cls.load(load_tree(path), cell, design)
+        return cls.load(load_tree(path, dataflow=False), cell, design)
 
     @classmethod
     def load(cls, doc, cell: Cell | None, design: DesignModel | None) -> "TreeHarness":

@@ -1,26 +1,34 @@
 """Driver-level safety, wrapped around any Arm whatever the backend and whatever a skill asks.
 
-`SafeArm` clamps (or refuses) targets outside the workspace box, caps TCP speed, stops on excess
-force or any driver fault, and runs a watchdog that stops the arm when the tree stops ticking
+`SafeArm` is the gate every arm command passes: it refuses (never clamps) non-finite poses, twists
+and speeds, speeds at or below zero, rotation vectors turning beyond pi and wrong shapes, latching a
+fault that names the command and the bad value; it clamps (or refuses) targets outside the workspace
+box, caps the TCP's linear speed and refuses a turn faster than `max_angular_speed`. Anything the driver raises, in a command or a state
+read, latches a fault instead of escaping, and a non-finite pose or force reading stops the arm. It
+also stops on excess force, and runs a watchdog that stops the arm when the tree stops ticking
 (`kick` not called) or the arm's state goes stale. On real hardware the watchdog also runs in its
 own thread (`start_watchdog`), so it fires even when the tick loop itself hangs, and `kick` feeds
 the controller's own watchdog where the arm has one (the last line of defence if this process
-dies). A tripped SafeArm stays faulted until `reset` is called by a person (never automatically).
+dies). Faults stay latched until `reset` is called by a person (never automatically); `fault()`
+reports every latched cause.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 import threading
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from drivers.protocols import Arm, Clock, DriverFault
+from drivers.guard import Guard, finite_number, finite_pose, finite_vector, positive_number
+from drivers.protocols import Arm, Clock
 
 log = logging.getLogger(__name__)
 WORKSPACE_POLICIES = ("clamp", "refuse")
+NO_READING = np.full(6, np.nan)  # what a read returns when the driver never gave a good one
 
 
 @runtime_checkable
@@ -32,24 +40,29 @@ class ControllerWatchdog(Protocol):
 
 @dataclass(frozen=True)
 class SafetyLimits:
-    """Limits from the cell file. Positions in metres (base frame), speed m/s, force N."""
+    """Limits from the cell file. Positions in metres (base frame), speed m/s, angular speed rad/s,
+    force N, times s. Every value must be finite; all but the box corners positive."""
 
     workspace_min: np.ndarray = field(default_factory=lambda: np.array([-1.0, -1.0, 0.0]))
     workspace_max: np.ndarray = field(default_factory=lambda: np.array([1.0, 1.0, 1.0]))
     max_speed: float = 0.25
+    max_angular_speed: float = 1.0  # rad/s, the TCP's turn rate in a twist
     max_force: float = 150.0
     watchdog_timeout: float = 0.5  # s without a kick (tree tick) before the arm is stopped
     stale_after: float = 0.1  # s without fresh arm state before the arm is stopped
     out_of_workspace: str = "clamp"  # clamp: pull targets into the box; refuse: stop and fault
 
     def __post_init__(self):
-        lo = np.asarray(self.workspace_min, float)
-        hi = np.asarray(self.workspace_max, float)
-        if lo.shape != (3,) or hi.shape != (3,) or np.any(lo >= hi):
-            raise ValueError(f"workspace box must be 3 mins below 3 maxes, got {lo} .. {hi}")
-        for name in ("max_speed", "max_force", "watchdog_timeout", "stale_after"):
-            if getattr(self, name) <= 0:
-                raise ValueError(f"safety limit {name} must be positive")
+        lo, hi = _corner("workspace_min", self.workspace_min), _corner("workspace_max", self.workspace_max)
+        if np.any(lo >= hi):
+            raise ValueError(f"workspace box must be 3 mins below 3 maxes, got {lo.tolist()} .. {hi.tolist()}")
+        for name in ("max_speed", "max_angular_speed", "max_force", "watchdog_timeout", "stale_after"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ValueError(f"safety limit {name} must be a positive number, got {value!r}")
+            if value <= 0:
+                raise ValueError(f"safety limit {name} must be positive, got {value!r}")
+            object.__setattr__(self, name, float(value))
         if self.out_of_workspace not in WORKSPACE_POLICIES:
             raise ValueError(f"out_of_workspace must be one of {WORKSPACE_POLICIES}, "
                              f"got {self.out_of_workspace!r}")
@@ -65,81 +78,89 @@ class SafetyLimits:
         return cls(**d)
 
 
-class SafeArm:
+def _corner(name: str, value) -> np.ndarray:
+    """A workspace corner as 3 finite floats, or ValueError."""
+    try:
+        corner = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be 3 numbers [x, y, z], got {value!r}") from None
+    if corner.shape != (3,) or not np.all(np.isfinite(corner)):
+        raise ValueError(f"{name} must be 3 finite numbers [x, y, z], got {value!r}")
+    return corner
+
+
+class SafeArm(Guard):
     """An Arm that enforces `SafetyLimits` on another Arm."""
 
     def __init__(self, arm: Arm, limits: SafetyLimits, clock: Clock):
-        self.inner = arm
+        super().__init__(arm, "arm")
         self.limits = limits
         self.clock = clock
-        self._fault: str | None = None
         self._last_kick = clock.now()
         self.clamped = 0  # count of targets pulled back into the workspace (for reports)
-        self._lock = threading.RLock()  # the tick thread and the watchdog thread both supervise
         self._watchdog: threading.Thread | None = None
         self._watchdog_period: float | None = None  # set by start_watchdog
         self._watchdog_stop = threading.Event()
         self._controller_watchdog = isinstance(arm, ControllerWatchdog)  # checked once: it is slow
 
-    # --- state passes through -------------------------------------------------------------
+    # --- state, checked on the way through ----------------------------------------------------
     def pose(self) -> np.ndarray:
-        return self.inner.pose()
+        return self._read("pose", self.inner.pose, NO_READING, finite_vector)
 
     def tcp_speed(self) -> np.ndarray:
-        return self.inner.tcp_speed()
+        return self._read("tcp_speed", self.inner.tcp_speed, NO_READING, finite_vector)
 
     def tcp_wrench(self) -> np.ndarray:
-        return self.inner.tcp_wrench()
+        return self._read("tcp_wrench", self.inner.tcp_wrench, NO_READING, finite_vector)
 
     def state_stamp(self) -> float:
-        return self.inner.state_stamp()
+        return self._read("state_stamp", self.inner.state_stamp, -math.inf, finite_number)
 
     def is_moving(self) -> bool:
-        return self.inner.is_moving()
-
-    def fault(self) -> str | None:
-        return self._fault or self.inner.fault()
+        return self._read("is_moving", self.inner.is_moving, False, lambda _, moving: bool(moving))
 
     # --- guarded commands -------------------------------------------------------------------
     def move_linear(self, pose: np.ndarray, speed: float) -> None:
         with self._lock:
             if self._refuse("move_linear"):
                 return
-            target = np.array(pose, dtype=float)
-            clipped = np.clip(target[:3], self.limits.workspace_min, self.limits.workspace_max)
-            if not np.allclose(clipped, target[:3]):
+            checked = self._gate("move_linear", lambda: (finite_pose("pose", pose), positive_number("speed", speed)))
+            if checked is None:
+                return
+            goal, speed = checked
+            clipped = np.clip(goal[:3], self.limits.workspace_min, self.limits.workspace_max)
+            if not np.allclose(clipped, goal[:3]):  # beyond rounding: refuse, or clamp and count
                 if self.limits.out_of_workspace == "refuse":
-                    self.trip(f"workspace: target {np.round(target[:3], 4).tolist()} is outside "
+                    self.trip(f"workspace: target {np.round(goal[:3], 4).tolist()} is outside "
                               f"the box {self.limits.workspace_min.tolist()} .. "
                               f"{self.limits.workspace_max.tolist()}")
                     return
                 self.clamped += 1
-                log.warning("target %s outside the workspace, clamped to %s", target[:3], clipped)
-                target[:3] = clipped
-            self._forward("move_linear", self.inner.move_linear, target,
-                          min(float(speed), self.limits.max_speed))
+                log.warning("target %s outside the workspace, clamped to %s", goal[:3], clipped)
+            goal[:3] = clipped
+            self._forward("move_linear", self.inner.move_linear, goal, min(speed, self.limits.max_speed))
 
     def speed_linear(self, twist: np.ndarray) -> None:
         with self._lock:
-            self._speed_linear(twist)
-
-    def _speed_linear(self, twist: np.ndarray) -> None:
-        if self._refuse("speed_linear"):
-            return
-        v = np.array(twist, dtype=float)
-        norm = float(np.linalg.norm(v[:3]))
-        if norm > self.limits.max_speed:
-            v[:3] *= self.limits.max_speed / norm
-        # Never drive further out through a face of the workspace box.
-        p = self.inner.pose()[:3]
-        out_low = (p <= self.limits.workspace_min) & (v[:3] < 0)
-        out_high = (p >= self.limits.workspace_max) & (v[:3] > 0)
-        v[:3][out_low | out_high] = 0.0
-        self._forward("speed_linear", self.inner.speed_linear, v)
-
-    def stop(self) -> None:
-        with self._lock:
-            self.inner.stop()
+            if self._refuse("speed_linear"):
+                return
+            v = self._gate("speed_linear", lambda: finite_vector("twist", twist))
+            if v is None:
+                return
+            turn = float(np.linalg.norm(v[3:]))
+            if turn > self.limits.max_angular_speed:
+                self.trip(f"speed_linear refused: angular speed {turn:.4g} rad/s is over the cell's "
+                          f"max_angular_speed {self.limits.max_angular_speed:g} rad/s")
+                return
+            _cap(v[:3], self.limits.max_speed)
+            # Never drive further out through a face of the workspace box.
+            p = self.pose()[:3]
+            if self._causes:
+                return  # the pose could not be read: the arm is stopped
+            out_low = (p <= self.limits.workspace_min) & (v[:3] < 0)
+            out_high = (p >= self.limits.workspace_max) & (v[:3] > 0)
+            v[:3][out_low | out_high] = 0.0
+            self._forward("speed_linear", self.inner.speed_linear, v)
 
     # --- supervision, called once per tick by the cell ---------------------------------------
     def kick(self) -> None:
@@ -147,8 +168,8 @@ class SafeArm:
         self._last_kick = self.clock.now()
         if self._watchdog_period is not None and self._watchdog is None:
             self._start_watchdog_thread(self._watchdog_period)
-        if not self._fault and self._controller_watchdog:
-            self.inner.kick_watchdog()
+        if not self._causes and self._controller_watchdog:
+            self._forward("kick_watchdog", self.inner.kick_watchdog)
 
     def start_watchdog(self, period: float = 0.01) -> None:
         """From the first `kick` on (the tree started ticking), also supervise every `period` s
@@ -175,51 +196,36 @@ class SafeArm:
             self._watchdog = None
 
     def supervise(self) -> str | None:
-        """Check force, faults, watchdog and data age; stop and latch a fault on any breach."""
+        """Check the driver's fault, the readings, force, watchdog and data age; stop and latch
+        a fault on any breach. Returns the latched fault text, or None."""
         with self._lock:
-            return self._supervise()
-
-    def _supervise(self) -> str | None:
-        if self._fault:
-            return self._fault
-        now = self.clock.now()
-        reason = None
-        force = float(np.linalg.norm(self.inner.tcp_wrench()[:3]))
-        if self.inner.fault():
-            reason = f"driver fault: {self.inner.fault()}"
-        elif force > self.limits.max_force:
-            reason = f"force limit: {force:.1f} N > {self.limits.max_force:.1f} N"
-        elif now - self._last_kick > self.limits.watchdog_timeout:
-            reason = f"watchdog: tree has not ticked for {now - self._last_kick:.3f} s"
-        elif now - self.inner.state_stamp() > self.limits.stale_after:
-            reason = f"stale arm state: {now - self.inner.state_stamp():.3f} s old"
-        if reason:
-            self.trip(reason)
-        return self._fault
-
-    def trip(self, reason: str) -> None:
-        """Stop the arm and latch `reason` as the fault."""
-        with self._lock:
-            self._fault = reason  # first: no command may slip in while the arm stops
-            log.error("safety stop: %s", reason)
-            self.inner.stop()
+            if self._causes:
+                return self.fault()
+            now = self.clock.now()
+            self.fault()  # latches the driver's own fault
+            force = float(np.linalg.norm(self.tcp_wrench()[:3]))
+            self.pose()
+            stamp = self.state_stamp()
+            if self._causes:
+                return self.fault()  # a driver fault, or a reading that was not finite
+            if force > self.limits.max_force:
+                self.trip(f"force limit: {force:.1f} N > {self.limits.max_force:.1f} N")
+            elif now - self._last_kick > self.limits.watchdog_timeout:
+                self.trip(f"watchdog: tree has not ticked for {now - self._last_kick:.3f} s")
+            elif now - stamp > self.limits.stale_after:
+                self.trip(f"stale arm state: {now - stamp:.3f} s old")
+            return self.fault()
 
     def reset(self) -> None:
-        """Clear a latched fault; for a person who has checked the cell, never automatic."""
+        """Clear the latched faults; for a person who has checked the cell, never automatic."""
         with self._lock:
-            self._fault = None
+            super().reset()
             self._last_kick = self.clock.now()
 
-    def _forward(self, what: str, command, *args) -> None:
-        """Pass a command on; a driver that raises DriverFault trips the safety stop instead of
-        crashing the tick."""
-        try:
-            command(*args)
-        except DriverFault as exc:
-            self.trip(f"driver fault during {what}: {exc}")
 
-    def _refuse(self, what: str) -> bool:
-        if self._fault:
-            log.warning("%s refused: arm is stopped (%s)", what, self._fault)
-            return True
-        return False
+def _cap(v: np.ndarray, limit: float) -> None:
+    """Scale `v` in place down to norm `limit`, keeping its direction."""
+    scale = float(np.abs(v).max())
+    norm = scale * float(np.linalg.norm(v / scale)) if scale > 0 else 0.0  # no overflow for huge entries
+    if norm > limit:
+        v *= limit / norm

@@ -20,6 +20,7 @@ from drivers.cell_builders import builder_kind
 from drivers.cell_file import CELLS_DIR, read_cell_file
 from drivers.emulators.launch import EmulatorProcess
 from drivers.hardware.real_cell import parse
+from drivers.loopback import is_loopback
 
 
 def cell_emulators(cell_file: Path, contact_z: float | None = None,
@@ -29,8 +30,8 @@ def cell_emulators(cell_file: Path, contact_z: float | None = None,
     spec = parse(cell_file, data, shadow=builder_kind(cell_file, data) == "emulated_shadow")
     arm, grip, emulation = spec["arm"], spec["gripper"], spec["emulation"]
     for host in (arm.host, grip.host):
-        if not host.startswith("127."):
-            raise ValueError(f"{cell_file}: {host} is not a loopback address; emulators serve 127.0.0.0/8 only")
+        if not is_loopback(host):
+            raise ValueError(f"{cell_file}: {host} is not a loopback address; emulators serve loopback only")
     scale = str(emulation.time_scale)
     ur_args = ["--host", arm.host, "--time-scale", scale, "--backdoor-port", str(emulation.arm_backdoor_port)]
     if contact_z is not None:
@@ -47,7 +48,7 @@ def cell_emulators(cell_file: Path, contact_z: float | None = None,
              EmulatorProcess("drivers.emulators.robotiq", gripper_args)]
     for cam in spec["cameras"].values():
         url = urlparse(str(cam.source))
-        if url.scheme == "http" and (url.hostname or "").startswith("127."):
+        if url.scheme == "http" and is_loopback(url.hostname or ""):
             procs.append(EmulatorProcess("drivers.emulators.mjpeg", [
                 "--host", url.hostname, "--port", str(url.port or 80), "--pattern", "fingervision"]))
     return procs

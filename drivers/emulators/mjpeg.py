@@ -22,6 +22,8 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 import cv2
 import numpy as np
 
+from drivers.loopback import is_loopback
+
 BOUNDARY = "fvtreeframe"
 
 
@@ -106,8 +108,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--pattern", choices=["bars", "fingervision"], default="bars")
     p.add_argument("--drop-after", type=int, default=None, help="close connections after N frames")
     args = p.parse_args(argv)
-    if not args.host.startswith("127."):
-        p.error("the emulator binds loopback addresses only (127.0.0.0/8)")
+    if not is_loopback(args.host):
+        p.error("the emulator binds loopback addresses only (127.0.0.0/8, ::1, localhost)")
     w, h = (int(v) for v in args.size.lower().split("x"))
     server = MjpegServer(args.host, args.port, args.fps, (w, h), args.drop_after, args.pattern).start()
     stop = threading.Event()

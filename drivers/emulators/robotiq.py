@@ -26,6 +26,7 @@ from pymodbus.simulator import DataType, SimData, SimDevice
 
 from drivers.emulators import backdoor
 from drivers.emulators.robotiq_model import GripperSpec, RobotiqModel
+from drivers.loopback import is_loopback
 
 FRAMERS = {"tcp": FramerType.SOCKET, "rtu": FramerType.RTU}
 
@@ -116,8 +117,8 @@ def main(argv: list[str] | None = None) -> int:
                    help="emulated seconds per wall-clock second (speeds up long runs in tests)")
     p.add_argument("--backdoor-port", type=int, default=30998, help="fault-injection port")
     args = p.parse_args(argv)
-    if not args.host.startswith("127."):
-        p.error("the emulator binds loopback addresses only (127.0.0.0/8)")
+    if not is_loopback(args.host):
+        p.error("the emulator binds loopback addresses only (127.0.0.0/8, ::1, localhost)")
     if args.time_scale <= 0:
         p.error("--time-scale must be positive")
     logging.basicConfig(level=logging.WARNING)

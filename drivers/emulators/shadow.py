@@ -44,15 +44,16 @@ def build_shadow_cell(path: Path, data: dict, request: CellRequest) -> Cell:
     closers: list[Callable[[], None]] = []
 
     def build() -> Cell:
-        arm, safe, gripper, cameras = connect(spec, clock, closers)
+        devices = connect(spec, clock, closers)
         emulation = spec["emulation"]
         doors = [Client(spec["arm"].host, emulation.arm_backdoor_port),
                  Client(spec["gripper"].host, emulation.gripper_backdoor_port)]
         closers.extend(door.close for door in doors)
-        world, _, sense = build_world(path, settings, FollowedArm(arm, doors[0]),
-                                      FollowedGripper(gripper, doors[1], emulation.pad_stiffness), clock,
+        world, _, sense = build_world(path, settings, FollowedArm(devices.arm, doors[0]),
+                                      FollowedGripper(devices.gripper, doors[1], emulation.pad_stiffness), clock,
                                       request.scene, request.scene_args, request.seed)
-        return Cell(spec["name"], safe, gripper, clock, sense, cameras=cameras, world=world, closers=closers)
+        return Cell(spec["name"], devices.safe_arm, devices.safe_gripper, clock, sense, cameras=devices.cameras,
+                    world=world, closers=closers)
 
     return closing_on_error(closers, build)
 

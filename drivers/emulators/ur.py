@@ -31,6 +31,7 @@ import numpy as np
 
 from drivers.emulators import backdoor, rtde_wire
 from drivers.emulators.ur_model import ContactPlane, UrModel
+from drivers.loopback import is_loopback
 
 DASHBOARD_PORT, SCRIPT_PORT, RTDE_PORT = 29999, 30003, 30004
 VERSIONS = {3: (3, 15, 7, 106331), 5: (5, 11, 1, 108318)}
@@ -244,11 +245,13 @@ class UrEmulator:
         elif command == "external_wrench":
             if not 3 <= len(args) <= 6:
                 return {"ok": False, "error": "external_wrench takes FX FY FZ [TX TY TZ] (N, N m)"}
+            wrench = _finite(args) + [0.0] * (6 - len(args))
             with m.lock:
-                m.external_wrench = np.array([float(a) for a in args] + [0.0] * (6 - len(args)))
+                m.external_wrench = np.array(wrench)
         elif command == "contact_plane":
+            z = None if args[0] == "none" else _finite(args[:1])[0]
             with m.lock:
-                m.plane.z = None if args[0] == "none" else float(args[0])
+                m.plane.z = z
         else:
             return {"ok": False, "error": f"unknown command {command!r}; known: state, "
                     "protective_stop, estop, estop_release, drop [s], contact_plane Z|none, "
@@ -310,6 +313,14 @@ class UrEmulator:
         self.drop(0.0)
 
 
+def _finite(words: list[str]) -> list[float]:
+    """Back-door arguments as finite numbers; a ValueError (an error reply) otherwise."""
+    values = [float(w) for w in words]
+    if not np.all(np.isfinite(values)):
+        raise ValueError(f"values must be finite, got {' '.join(words)}")
+    return values
+
+
 def _names(raw: bytes) -> list[str]:
     return [n for n in raw.decode().split(",") if n]
 
@@ -335,8 +346,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--backdoor-port", type=int, default=30999, help="fault-injection port")
     p.add_argument("--dump-script", type=Path, default=None, help="save the uploaded script here")
     args = p.parse_args(argv)
-    if not args.host.startswith("127."):
-        p.error("the emulator binds loopback addresses only (127.0.0.0/8)")
+    if not is_loopback(args.host):
+        p.error("the emulator binds loopback addresses only (127.0.0.0/8, ::1, localhost)")
     if args.time_scale <= 0:
         p.error("--time-scale must be positive")
     model = UrModel(3 if args.cb3 else 5, ContactPlane(args.contact_z, args.stiffness, args.protective_force),

@@ -22,6 +22,9 @@ SPEED_STOP, SERVO_STOP, SERVOL, PROTECTIVE_STOP, STOPL, STOPJ = 15, 16, 24, 31, 
 SET_WATCHDOG, IS_POSE_WITHIN_SAFETY_LIMITS, IS_STEADY, MOVE_UNTIL_CONTACT, STOP_SCRIPT = 35, 36, 47, 51, 255
 # Commands the 1.6.5 script acknowledges with "ready" at once instead of "done" (streaming, queries).
 REALTIME = {FORCE_MODE, SPEEDJ, SPEEDL, SERVOJ, SERVOL, 25, 26, 27, 38, 58, 66, 67, 68, 69, 70, 71}
+# The input double registers each command reads: a setpoint, speed, acceleration, time or rate.
+SETPOINT_REGISTERS = {MOVEL: range(8), SPEEDL: range(8), SERVOL: range(11), MOVE_UNTIL_CONTACT: (*range(6), 12),
+                      STOPL: (0,), STOPJ: (0,), SET_WATCHDOG: (0,)}
 READY, DONE = 1, 2
 
 # robot/safety status encodings (RTDE guide)
@@ -199,6 +202,12 @@ class UrModel:
                 self.out_int[0] = DONE
 
     def _process(self, cmd: int) -> None:
+        bad = [i for i in SETPOINT_REGISTERS.get(cmd, ()) if not np.isfinite(self._in_double(i))]
+        if bad:
+            # As the controller does with an invalid setpoint: refuse it and stop the arm safely.
+            self.protective_stop(f"invalid setpoint: command {cmd} with non-finite input_double_register "
+                                 f"{', '.join(map(str, bad))}")
+            return
         if cmd == MOVEL:
             self._begin_move(self._in_vec(0), self._in_double(6), self._in_double(7),
                              asynchronous=self._in_int(1) == 1)

@@ -1,11 +1,11 @@
-"""Build a real cell from a `kind: real` cell file: a UR arm over ur_rtde behind the safety layer,
-a Robotiq gripper over Modbus, OpenCV cameras, and the FingerVision perception stage on them.
+"""Build a real cell from a `kind: real` cell file: a UR arm over ur_rtde and a Robotiq gripper over
+Modbus, both behind the safety layer, OpenCV cameras, and the FingerVision perception stage on them.
 
 Sections: `arm` (UrConfig fields, `driver: ur_rtde`), `gripper` (RobotiqConfig fields, `driver:
 robotiq_modbus`, `activate`), `cameras` (finger -> CameraConfig fields), `perception` (`source:
 fingervision | none`, `preset`, `marker_maps`, `stale_after`, `calibration_timeout`), `safety`
-(SafetyLimits fields), and for cells of loopback emulators only `emulation` (`time_scale`, back-door
-ports, `pad_stiffness`). The whole file is checked before any device is touched. See
+(SafetyLimits fields), `supervision` (read by the run's cell supervisor, assembly/supervisor.py),
+and for cells of loopback emulators only `emulation` (`time_scale`, back-door ports, `pad_stiffness`). The whole file is checked before any device is touched. See
 drivers/cells/ur_robotiq.yaml and drivers/cells/emulated.yaml; a cell whose perception is a shadow
 world (drivers/cells/emulated_shadow.yaml) is built by drivers/emulators/shadow.py on top of this.
 """
@@ -23,12 +23,14 @@ from drivers.clock import WallClock
 from drivers.hardware.camera import CameraConfig, OpenCvCamera
 from drivers.hardware.gripper_modbus import RobotiqConfig, RobotiqGripper
 from drivers.hardware.ur import UrArm, UrConfig
+from drivers.loopback import is_loopback
+from drivers.safe_gripper import SafeGripper
 from drivers.safety import SafeArm, SafetyLimits
 from perception.calibration import CalibrationError, MarkerMap
 from perception.config import ConfigError, FingerVisionConfig, load_config, preset_names
 from perception.state import FINGERS, TactileState
 
-SECTIONS = {"kind", "name", "arm", "gripper", "cameras", "perception", "safety", "emulation"}
+SECTIONS = {"kind", "name", "arm", "gripper", "cameras", "perception", "safety", "supervision", "emulation"}
 PERCEPTION_FIELDS = {"source", "preset", "marker_maps", "stale_after", "calibration_timeout"}
 PERCEPTION_SOURCES = ("fingervision", "none")
 PERCEPTION_DEFAULTS = {"preset": "fast", "stale_after": 0.5, "calibration_timeout": 5.0}  # times in s
@@ -143,7 +145,7 @@ def parse_emulation(path: Path, data: dict, shadow: bool, hosts: tuple[str, str]
     if emulation or shadow:
         why = "an emulation section" if emulation else "perception.source shadow"
         for where, host in zip(("arm.host", "gripper.host"), hosts):
-            if not host.startswith("127."):
+            if not is_loopback(host):
                 raise CellFileError(path, where, f"{why} needs the loopback emulators, but {host} "
                                     "is not a loopback address (a real robot runs in real time)")
     return config_from(path, "emulation", Emulation, emulation)
@@ -155,10 +157,20 @@ def no_perception(clock) -> Callable[[], dict[str, TactileState]]:
     return lambda: {f: TactileState(f, clock.now(), healthy=False, health_reason=reason) for f in FINGERS}
 
 
-def connect(spec: dict[str, Any], clock: WallClock, closers: list[Callable[[], None]]
-            ) -> tuple[UrArm, SafeArm, RobotiqGripper, dict[str, OpenCvCamera]]:
-    """Connect arm (behind the safety layer), gripper and cameras of a parsed cell file; each
-    device's close joins `closers` as soon as it is open."""
+@dataclass(frozen=True)
+class Devices:
+    """The connected devices of a cell: each driver, and the arm and gripper behind the safety layer."""
+
+    arm: UrArm
+    gripper: RobotiqGripper
+    safe_arm: SafeArm
+    safe_gripper: SafeGripper
+    cameras: dict[str, OpenCvCamera]
+
+
+def connect(spec: dict[str, Any], clock: WallClock, closers: list[Callable[[], None]]) -> Devices:
+    """Connect arm and gripper (each behind the safety layer) and cameras of a parsed cell file;
+    each device's close joins `closers` as soon as it is open."""
     arm = UrArm(spec["arm"], clock)
     closers.append(arm.close)
     safe = SafeArm(arm, spec["limits"], clock)
@@ -170,7 +182,7 @@ def connect(spec: dict[str, Any], clock: WallClock, closers: list[Callable[[], N
         gripper.activate()
     cameras = {name: OpenCvCamera(name, cfg, clock) for name, cfg in spec["cameras"].items()}
     closers.extend(c.close for c in cameras.values())
-    return arm, safe, gripper, cameras
+    return Devices(arm, gripper, safe, SafeGripper(gripper, max_force=spec["gripper"].force_range[1]), cameras)
 
 
 def closing_on_error(closers: list[Callable[[], None]], build: Callable[[], Cell]) -> Cell:
@@ -190,15 +202,16 @@ def build_real_cell(path: Path, data: dict, request: CellRequest) -> Cell:
     closers: list[Callable[[], None]] = []
 
     def build() -> Cell:
-        _, safe, gripper, cameras = connect(spec, clock, closers)
+        devices = connect(spec, clock, closers)
         p = spec["perception"]
         if p["source"] == "fingervision":
             from drivers.hardware.camera_sense import fingervision_sense
 
-            sense = fingervision_sense(cameras, clock, p["config"], p["maps"], p["stale_after"],
+            sense = fingervision_sense(devices.cameras, clock, p["config"], p["maps"], p["stale_after"],
                                        p["calibration_timeout"])
         else:
             sense = no_perception(clock)
-        return Cell(spec["name"], safe, gripper, clock, sense, cameras=cameras, closers=closers)
+        return Cell(spec["name"], devices.safe_arm, devices.safe_gripper, clock, sense, cameras=devices.cameras,
+                    closers=closers)
 
     return closing_on_error(closers, build)

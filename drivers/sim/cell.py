@@ -1,6 +1,7 @@
-"""Build the simulated cell from a `kind: sim` cell file and the scene a tree needs: a kinematic
-arm behind the real safety layer, a gripper with compliant gels, the scene around them and its
-FingerVision perception (from contact signals, or rendered frames through the real pipeline)."""
+"""Build the simulated cell from a `kind: sim` cell file and the scene a tree needs: a kinematic arm
+and a gripper with compliant gels, both behind the real safety layer, the scene around them and its
+FingerVision perception (from contact signals, or rendered frames through the real pipeline). The
+file's `supervision` section is read by the run's cell supervisor (assembly/supervisor.py)."""
 
 from __future__ import annotations
 
@@ -12,12 +13,13 @@ from drivers.cell import Cell
 from drivers.cell_builders import CellRequest
 from drivers.cell_file import CellFileError, check_known, section
 from drivers.clock import SimClock
+from drivers.safe_gripper import SafeGripper
 from drivers.safety import SafeArm, SafetyLimits
 from drivers.sim.devices.arm import KinematicArm
 from drivers.sim.devices.gripper import SimGripper
 from drivers.sim.scenes import build_world, world_settings
 
-FIELDS = {"kind", "name", "home", "safety", "gripper", "sensor", "world", "perception"}
+FIELDS = {"kind", "name", "home", "safety", "supervision", "gripper", "sensor", "world", "perception"}
 PERCEPTION_MODES = ("signals", "pixels")
 
 
@@ -43,4 +45,4 @@ def build_sim_cell(path: Path, data: dict, request: CellRequest) -> Cell:
         )
 
         sense = pixel_level_sense(world, sensors, clock, request.seed)
-    return Cell(data.get("name", "sim"), SafeArm(arm, limits, clock), gripper, clock, sense, world=world)
+    return Cell(data.get("name", "sim"), SafeArm(arm, limits, clock), SafeGripper(gripper), clock, sense, world=world)

@@ -35,6 +35,21 @@ class Emulator:
         return self.call("state")
 
 
+WALL_SLACK = 5.0  # s of wall time a loaded two-core machine may leave a thread unscheduled
+
+
+def tolerant_of_load(data: dict, time_scale: float = 1.0) -> dict:
+    """A real cell file's mapping with every timeout that measures scheduling rather than the
+    devices (the controller's RTDE watchdog, the driver's link timeout, the safety layer's
+    watchdog and data age, the supervisor's perception age) raised to WALL_SLACK s of wall time,
+    so that a busy test machine never stops the cell; `time_scale` is the emulators' speed-up."""
+    cell_seconds = WALL_SLACK * time_scale
+    data["arm"].update(watchdog_hz=1.0 / cell_seconds, link_timeout=WALL_SLACK)
+    data["safety"].update(watchdog_timeout=cell_seconds, stale_after=cell_seconds)
+    data["supervision"] = {"perception_stale_after": cell_seconds}
+    return data
+
+
 def wait_until(predicate, timeout: float, step: float = 0.005) -> bool:
     """Poll `predicate` until it holds or `timeout` s pass; returns whether it held."""
     deadline = time.monotonic() + timeout

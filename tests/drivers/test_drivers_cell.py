@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from drivers_testkit import emulating, next_host
+from drivers_testkit import emulating, next_host, tolerant_of_load
 
 from assembly.bench import drivers as benchmark
 from drivers.cell_builders import load_cell
@@ -16,6 +16,7 @@ from drivers.check import check_cell
 from drivers.emulators.shadow import parse_shadow
 from drivers.hardware.real_cell import parse
 from drivers.hardware.ur import UrArm
+from drivers.loopback import is_loopback
 from drivers.safety import SafeArm
 from perception.calibration import MarkerMap
 from perception.config import FingerVisionConfig
@@ -24,8 +25,9 @@ from perception.state import FINGERS
 
 @pytest.fixture
 def emulated_cell(tmp_path):
-    """emulated.yaml moved onto fresh test addresses, with its emulators running."""
-    data = yaml.safe_load((CELLS_DIR / "emulated.yaml").read_text())
+    """emulated.yaml moved onto fresh test addresses, tolerant of a loaded machine, with its
+    emulators running."""
+    data = tolerant_of_load(yaml.safe_load((CELLS_DIR / "emulated.yaml").read_text()))
     data["arm"]["host"] = next_host()
     data["gripper"]["host"] = next_host()
     for finger in FINGERS:
@@ -59,6 +61,7 @@ def test_packaged_real_cell_files_validate_without_touching_hardware():
     # only emulators run faster than real time or take objects from a shadow world
     (lambda d: d["arm"].update(host="192.168.1.10"), "arm.host", "not a loopback address"),
     (lambda d: d["gripper"].update(host="10.0.0.7"), "gripper.host", "not a loopback address"),
+    (lambda d: d["arm"].update(host="127.0.0.1.example"), "arm.host", "not a loopback address"),
     (lambda d: d["emulation"].update(time_scale=0), "emulation", "time_scale"),
     (lambda d: d["emulation"].update(speed=3), "emulation.speed", "unknown field"),
     (lambda d: d["perception"]["world"].update(frictoin=1), "perception.world.frictoin", "unknown field"),
@@ -71,6 +74,23 @@ def test_cell_file_errors_name_the_field(tmp_path, edit, field, message):
     with pytest.raises(CellFileError) as err:
         parse_shadow(path, read_cell_file(path))
     assert err.value.field == field and message in err.value.message
+
+
+@pytest.mark.parametrize("host, loopback", [
+    ("127.0.0.1", True), ("127.5.3.9", True), ("::1", True), ("localhost", True),
+    ("127.0.0.1.example", False), ("127.example", False), ("0.0.0.0", False), ("192.168.1.10", False),
+    ("", False), ("no-such-host.invalid", False),
+])
+def test_loopback_is_checked_on_the_address_not_on_a_prefix(host, loopback):
+    assert is_loopback(host) is loopback
+
+
+def test_a_cell_of_emulators_may_name_them_localhost(tmp_path):
+    data = yaml.safe_load((CELLS_DIR / "emulated_shadow.yaml").read_text())
+    data["arm"]["host"] = data["gripper"]["host"] = "localhost"
+    path = tmp_path / "cell.yaml"
+    path.write_text(yaml.safe_dump(data))
+    assert parse_shadow(path, read_cell_file(path))["arm"].host == "localhost"
 
 
 def _saved_map(tmp_path: Path, name: str, image_size=(320, 240), markers: int = 5) -> str:

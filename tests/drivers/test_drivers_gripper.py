@@ -8,6 +8,7 @@ from pymodbus.client import ModbusTcpClient
 
 from drivers.hardware.gripper_modbus import RobotiqConfig, RobotiqGripper
 from drivers.protocols import DriverFault
+from drivers.safe_gripper import SafeGripper
 
 # Robotiq 2F-85/140 manual, Modbus RTU examples (slave 9, CRC low byte first):
 MANUAL_RESET = "091003e8000306000000000000" + "7330"  # clear rACT: 1000..1002 = 0, 0, 0
@@ -135,3 +136,34 @@ def test_unreachable_gripper_gives_an_actionable_error():
     host = next_host()  # nothing listens there
     with pytest.raises(DriverFault, match=rf"cannot reach Robotiq gripper at {host}:5020"):
         RobotiqGripper(RobotiqConfig(host, port=5020, timeout=0.3))
+
+
+def test_the_safety_layer_latches_the_robotiq_s_own_fault_and_keeps_bad_commands_off_the_wire(start_robotiq):
+    emulator = start_robotiq("tcp")
+    g = connect(emulator, "tcp")
+    safe = SafeGripper(g, max_force=g.config.force_range[1])
+    try:
+        g.activate()
+
+        def writes() -> list[str]:  # the FC16 (write registers) frames the gripper received, Modbus TCP
+            return [r for r in emulator.call("requests")["requests"] if r[14:16] == "10"]
+
+        before = len(writes())
+        for width, speed, force in ((float("nan"), 0.05, 20.0), (0.04, 0.0, 20.0), (0.04, 0.05, 500.0)):
+            safe.reset()
+            safe.move(width, speed, force)
+            assert "gripper move refused" in safe.fault()
+        stops = writes()[before:]  # the first register's high byte: rACT alone, rGTO clear (hold)
+        assert len(stops) == 3 and all(frame[26:28] == "01" for frame in stops)  # no move reached it
+        safe.reset()
+        safe.move(0.0, 0.15, 60.0)
+        emulator.call("fault 0x0E")
+        assert wait_until(lambda: safe.fault() is not None, 5.0)
+        assert "overcurrent" in safe.fault()
+        safe.move(0.085)  # latched: refused although the driver would take it
+        assert "overcurrent" in safe.fault()
+        emulator.process.stop()  # the link goes: stop() stays safe and the cause is added
+        safe.stop()
+        assert "overcurrent" in safe.fault() and "stopped answering" in safe.fault()
+    finally:
+        g.close()
