@@ -30,6 +30,7 @@ Rules for skill authors:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from types import SimpleNamespace
 from typing import Any, Callable, ClassVar
@@ -73,13 +74,13 @@ class Param:
                 raise ValueError(f"expected a list of numbers, got {value!r}")
             if self.length is not None and len(value) != self.length:
                 raise ValueError(f"expected {self.length} numbers, got {len(value)}")
-            out = [float(v) for v in value]
+            out = [self._float(v) for v in value]
             items = out
         else:
             ok = _TYPES[self.type]
             if isinstance(value, bool) and self.type != "bool" or not isinstance(value, ok):
                 raise ValueError(f"expected {self.type}, got {type(value).__name__} {value!r}")
-            out = float(value) if self.type == "float" else value
+            out = self._float(value) if self.type == "float" else value
             items = [out] if self.type in ("float", "int") else []
         for v in items:
             if self.min is not None and v < self.min:
@@ -88,6 +89,17 @@ class Param:
                 raise ValueError(f"{v} is above the maximum {self.max}{self.unit and ' ' + self.unit}")
         if self.choices is not None and out not in self.choices:
             raise ValueError(f"{out!r} is not one of {', '.join(map(repr, self.choices))}")
+        return out
+
+    @staticmethod
+    def _float(value: float) -> float:
+        """A number as a finite float: NaN, infinity and ints beyond float range are refused."""
+        try:
+            out = float(value)
+        except OverflowError:
+            raise ValueError("a number beyond the range of floats (1.8e308)") from None
+        if not math.isfinite(out):
+            raise ValueError(f"{value} is not a finite number")
         return out
 
 
