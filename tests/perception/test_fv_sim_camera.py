@@ -1,4 +1,5 @@
-"""The synthetic FingerVision camera: truth matches the pixels, seeded, and the pixel-level cell hook."""
+"""The synthetic FingerVision camera: truth matches the pixels, seeded, redraws only what changed
+(leaving no trace of earlier frames), fresh noise on every frame, and the pixel-level cell hook."""
 
 import cv2
 import numpy as np
@@ -6,7 +7,14 @@ import pytest
 
 from drivers.clock import SimClock
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
-from drivers.sim.models.synthetic_camera import Appearance, SyntheticFingerVision, pixel_level_sense
+from drivers.sim.models.synthetic_camera import (
+    TOLERANCE_PX,
+    Appearance,
+    SyntheticFingerVision,
+    pixel_level_sense,
+)
+from perception.config import HealthConfig
+from perception.frames import ImageQuality
 from perception.state import FINGERS, ObjectInfo
 
 
@@ -17,7 +25,7 @@ def test_rendered_marker_centres_are_the_ground_truth_to_a_few_hundredths_of_a_p
     frame = cam.render(shifted, appearance=Appearance(noise=0.0))
     grey = cv2.cvtColor(frame.image, cv2.COLOR_BGR2GRAY).astype(float)
     for (x, y) in frame.truth.position[frame.truth.visible][:10]:
-        x0, y0 = int(round(x)) - 7, int(round(y)) - 7
+        x0, y0 = int(np.rint(x)) - 7, int(np.rint(y)) - 7
         patch = grey[y0:y0 + 15, x0:x0 + 15]
         w = np.clip(np.median(patch) - patch - 20.0, 0, None)  # darkness of the marker pixels only
         ys, xs = np.mgrid[0:15, 0:15]
@@ -55,6 +63,55 @@ def test_positions_must_match_the_marker_layout():
     cam = SyntheticFingerVision(SensorModel("right").origin)
     with pytest.raises(ValueError, match="positions have shape"):
         cam.render(np.zeros((3, 2)))
+
+
+CLEAN = Appearance(noise=0.0)
+
+
+def test_a_frame_drawn_over_earlier_ones_equals_a_fresh_drawing():
+    """Only the changed parts are redrawn; whatever came before, the frame is the same image."""
+    origin = SensorModel("right").origin
+    steps = [  # (markers moved by, object or None, texture slide)
+        (0.0, ObjectInfo(True, 0.2, np.array([0.05, -0.04]), 0.6), 0.0),
+        (0.4, ObjectInfo(True, 0.2, np.array([0.05, -0.04]), 0.6), 3.0),  # markers move, object slides
+        (0.4, ObjectInfo(True, 0.3, np.array([-0.1, 0.02]), -0.3), 3.0),  # the object moves
+        (1.7, None, 0.0),  # the object leaves
+        (1.7, ObjectInfo(True, 0.1, np.array([0.0, 0.1]), 1.2), 5.0),
+    ]
+    running = SyntheticFingerVision(origin, seed=4)
+    for k, (move, obj, slide) in enumerate(steps):
+        frame = running.render(origin + [move, -move / 2], 9.0 + move, obj, slide, CLEAN)
+        fresh = SyntheticFingerVision(origin, seed=4).render(origin + [move, -move / 2], 9.0 + move, obj, slide,
+                                                              CLEAN)
+        assert np.array_equal(frame.image, fresh.image), f"step {k}"
+        assert np.array_equal(frame.truth.object_mask, fresh.truth.object_mask)
+        np.testing.assert_array_equal(frame.truth.position, fresh.truth.position)
+
+
+def test_motion_within_the_tolerance_keeps_the_drawing_and_its_truth():
+    origin = SensorModel("right").origin
+    cam = SyntheticFingerVision(origin, seed=2)
+    first = cam.render(origin + 0.3, appearance=CLEAN)
+    nudged = cam.render(origin + 0.3 + TOLERANCE_PX / 2, appearance=CLEAN)
+    assert np.array_equal(first.image, nudged.image)
+    np.testing.assert_array_equal(nudged.truth.position, origin + 0.3)  # what the image shows
+    moved = cam.render(origin + 0.3 + 5 * TOLERANCE_PX, appearance=CLEAN)
+    assert not np.array_equal(first.image, moved.image)
+    np.testing.assert_allclose(moved.truth.position, origin + 0.3 + 5 * TOLERANCE_PX)
+
+
+def test_every_frame_has_fresh_noise_of_the_requested_spread():
+    """A still scene reuses its drawing, but its frames differ as a real camera's do: per-pixel
+    noise of the requested spread, uncorrelated from frame to frame, never a frozen camera."""
+    cam = SyntheticFingerVision(SensorModel("right").origin, seed=3)
+    frames = np.stack([cam.render(appearance=Appearance(noise=3.0)).image for _ in range(40)]).astype(float)
+    clean = cam.render(appearance=CLEAN).image.astype(float)
+    noise = (frames - clean)[:, 40:200, 80:240, 1]  # inside the window, off the housing
+    assert noise.std(axis=0).mean() == pytest.approx(3.0, rel=0.1)
+    assert abs(noise.mean()) < 0.1
+    assert abs(np.corrcoef(noise[:-1].ravel(), noise[1:].ravel())[0, 1]) < 0.05
+    quality = ImageQuality(HealthConfig())
+    assert not any(quality.problem(cv2.cvtColor(f.astype(np.uint8), cv2.COLOR_BGR2GRAY)) for f in frames)
 
 
 class PressingWorld:

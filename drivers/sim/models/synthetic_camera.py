@@ -3,30 +3,39 @@ truth, and the pixel-level perception source of the simulated cell.
 
 A frame is a round sensor window (dark housing around it) showing a blurred, fisheye-distorted,
 vignetted scene of background clutter, optionally a textured object pressed on the skin (it can
-slide: `obj_shift`) and a moving distractor behind it; black markers are drawn on top with
+slide: `obj_shift`) and a moving distractor behind it; black markers are drawn on top as
 anti-aliased, radially foreshortened discs whose centres are exactly the given positions. Lighting
 gain and gradient, dark occluders behind the skin, glare, blur and sensor noise are applied per
 frame. Everything random is drawn from the camera's seeded generator.
+
+Only what changed is drawn again: the clutter is drawn once; the layer beneath the markers
+(clutter, distractor, object, occluder) is redrawn on the object's bounding box when the object
+moves; the markers are redrawn on their patches when one of them moves; a frame where nothing moved
+more than `TOLERANCE_PX` reuses the last noise-free image (its truth is what was drawn). The sensor
+noise is fresh on every frame (`noise_bank`).
 """
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Callable, Mapping
 
 import cv2
 import numpy as np
 
 from drivers.clock import SimClock
 from drivers.protocols import World
-from drivers.sim.models.fingervision_model import SensorModel
+from drivers.sim.models.fingervision_model import FingerContact, SensorModel
+from drivers.sim.models.marker_patches import MarkerPainter, MarkerPatches
+from drivers.sim.models.noise_bank import NoiseBank
+from drivers.sim.models.object_layer import ObjectLayer, ObjectPatch, Placement, object_info_from_mask
 from perception.state import FINGERS, ObjectInfo, TactileState
 
-MARKER_GREY = 18.0  # marker core brightness before lighting
 HOUSING_GREY = 50.0
-OBJECT_BGR = (40.0, 120.0, 235.0)  # bright orange, as the thesis painted its test objects
 SKIN_BGR = (120.0, 150.0, 205.0)
 SLIP_PX_PER_UNIT = 4.0  # rendered object speed (px/frame) per unit of the contact model's slip
+TOLERANCE_PX = 0.01  # a marker or object edge moving less than this keeps the last drawing
 
 
 @dataclass(frozen=True)
@@ -39,6 +48,11 @@ class Appearance:
     blur: float = 0.0  # Gaussian blur sigma, px
     occlusion: float = 0.0  # share of the window hidden behind a dark object (markers lose contrast)
     glare: float = 0.0  # share of the window washed out by a specular highlight
+
+    @property
+    def plain(self) -> bool:
+        """No lighting change, glare or blur: the noise-free image is the drawn layers as they are."""
+        return self.gain == 1.0 and not self.gradient and not self.glare and not self.blur
 
 
 @dataclass(frozen=True)
@@ -59,16 +73,13 @@ class RenderedFrame:
     truth: Truth
 
 
-def object_info_from_mask(mask: np.ndarray) -> ObjectInfo:
-    """Area share, centroid and orientation of a boolean mask, in the proximity-vision convention."""
-    h, w = mask.shape
-    m = cv2.moments(mask.astype(np.uint8), binaryImage=True)
-    if m["m00"] == 0:
-        return ObjectInfo()
-    div = (w + h) / 2.0
-    centroid = np.array([(m["m10"] / m["m00"] - w / 2.0) / div, (m["m01"] / m["m00"] - h / 2.0) / div])
-    angle = 0.5 * np.arctan2(2.0 * m["mu11"], m["mu20"] - m["mu02"])
-    return ObjectInfo(True, m["m00"] / float(w * h), centroid, float(angle))
+@dataclass(frozen=True)
+class _Under:
+    """What the layer beneath the markers shows."""
+
+    distractor: tuple[int, int] | None
+    place: Placement | None
+    occlusion: float
 
 
 @dataclass
@@ -95,9 +106,25 @@ class SyntheticFingerVision:
         self._window = np.clip(self.window_radius + 0.5 - rr, 0.0, 1.0)[:, :, None]  # soft rim
         self._background = self._scene()
         self._occluder_seed = int(self._rng.integers(1 << 31))
-        # Object surface: smooth random (non-periodic) texture, mean 1, sampled as the object slides.
-        tex = cv2.GaussianBlur(self._rng.standard_normal((256, 256)).astype(np.float32), (0, 0), 2.0)
-        self._texture = 1.0 + 0.25 * tex / tex.std()
+        self._object = ObjectLayer(self._rng, self._window[:, :, 0])
+        self._noise_seed = int(self._rng.integers(1 << 31))
+        self._painter = MarkerPainter(self.image_size, self._centre, self.window_radius, self.foreshortening)
+        self._masks: dict[tuple[float, int], np.ndarray] = {}
+        self._noise: dict[float, NoiseBank] = {}
+        # The cached layers and what they show.
+        self._clutter = cv2.convertScaleAbs(self._background)  # >= 0: a rounding, saturating cast
+        self._base, self._base_distractor = self._clutter, None  # clutter (+ distractor), uint8
+        self._under = np.empty((h, w, 3), np.uint8)  # beneath the markers, uint8
+        self._shown: _Under | None = None  # what `_under` shows
+        self._object_box: tuple[int, int, int, int] | None = None
+        self._object_truth = (np.zeros((h, w), bool), ObjectInfo())
+        self._clean: np.ndarray | None = None  # noise-free frame, uint8
+        self._clean_key: tuple | None = None
+        self._drawn_position = np.full_like(self.origin, np.nan)  # the markers as last drawn
+        self._drawn_size = np.full(len(self.origin), np.nan)
+        self._patches: MarkerPatches | None = None  # of the markers as last drawn
+        self._diameters = np.zeros(len(self.origin))
+        self._seen = np.ones(len(self.origin), bool)  # which drawn markers are visible
 
     # ---- static parts -------------------------------------------------------------------
     def _scene(self) -> np.ndarray:
@@ -128,11 +155,16 @@ class SyntheticFingerVision:
         return img * self._window + HOUSING_GREY * (1.0 - self._window)
 
     def _blob_mask(self, share: float, salt: int) -> np.ndarray:
-        """Soft (H, W) mask of a seeded irregular blob covering `share` of the window."""
+        """Soft (H, W) mask of a seeded irregular blob covering `share` of the window (cached)."""
+        key = (share, salt)
+        if key not in self._masks:
+            self._masks[key] = self._draw_blob(share, salt)
+        return self._masks[key]
+
+    def _draw_blob(self, share: float, salt: int) -> np.ndarray:
         if share <= 0:
             return np.zeros(self.image_size[::-1], np.float32)
         rng = np.random.default_rng(self._occluder_seed + salt)
-        w, h = self.image_size
         target = share * np.pi * self.window_radius**2
         angle = rng.uniform(0, 2 * np.pi)
         r0 = rng.uniform(0.2, 0.5) * self.window_radius
@@ -146,52 +178,85 @@ class SyntheticFingerVision:
         rho = np.sqrt((u / a) ** 2 + (v / b) ** 2)
         return np.clip((1.0 - rho) * min(a, b) / 2.0 + 0.5, 0.0, 1.0).astype(np.float32) * self._window[:, :, 0]
 
-    # ---- per-frame parts ----------------------------------------------------------------
-    def _object(self, obj: ObjectInfo, shift: float) -> tuple[np.ndarray, np.ndarray]:
-        """(soft mask (H, W), textured colour (H, W, 3)) of a rectangle with the object's area and pose."""
-        w, h = self.image_size
-        div = (w + h) / 2.0
-        c = self._centre + np.asarray(obj.centroid, float) * div
-        area = max(obj.area, 1e-4) * w * h
-        length = np.sqrt(area * 1.6)
-        width = area / length
-        th = obj.orientation
-        dx, dy = self._xx - c[0], self._yy - c[1]
-        u = dx * np.cos(th) + dy * np.sin(th)
-        v = -dx * np.sin(th) + dy * np.cos(th)
-        soft = np.clip(np.minimum(length / 2 - np.abs(u), width / 2 - np.abs(v)) + 0.5, 0.0, 1.0)
-        texture = cv2.remap(self._texture, (u - shift + 128.0).astype(np.float32),
-                            (v + 128.0).astype(np.float32), cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
-        colour = texture[:, :, None] * np.asarray(OBJECT_BGR, np.float32)
-        return soft.astype(np.float32), colour.astype(np.float32)
+    # ---- the layer beneath the markers ----------------------------------------------------
+    def _update_under(self, obj: ObjectInfo | None, shift: float, occlusion: float,
+                      distractor: np.ndarray | None) -> None:
+        """Redraw what changed of clutter, distractor, object and occluder."""
+        place = self._object.place(obj, shift) if obj is not None and obj.present and obj.area > 0 else None
+        spot = None if distractor is None else (int(distractor[0]), int(distractor[1]))
+        last, now = self._shown, _Under(spot, place, occlusion)
+        if last is not None and spot == last.distractor and occlusion == last.occlusion:
+            if place is None and last.place is None:
+                return
+            if place is not None and not place.moved(last.place, TOLERANCE_PX):
+                return
+            if self._object_box is not None:
+                self._paint(self._object_box, None, occlusion)  # the object's old box, without it
+        else:
+            self._set_base(spot)
+            self._paint((0, self.image_size[1], 0, self.image_size[0]), None, occlusion)
+        self._shown = now
+        self._object_box, self._object_truth = None, (np.zeros(self.image_size[::-1], bool), ObjectInfo())
+        patch = self._object.draw(place) if place is not None else None
+        if patch is not None:
+            self._paint(patch.box, patch, occlusion)
+            y0, y1, x0, x1 = self._object_box = patch.box
+            mask = np.zeros(self.image_size[::-1], bool)
+            inside = mask[y0:y1, x0:x1]
+            np.greater_equal(patch.soft, 0.5, out=inside)
+            mask.flags.writeable = False  # shared by the frames that show this object
+            self._object_truth = (mask, object_info_from_mask(inside, (x0, y0), self.image_size))
 
-    def _markers(self, img: np.ndarray, position: np.ndarray, size: np.ndarray) -> np.ndarray:
-        """Draw anti-aliased marker discs in place; returns their equivalent diameters."""
-        h, w = img.shape[:2]
-        rel = position - self._centre
-        rho = np.linalg.norm(rel, axis=1)
-        radial = np.where(rho[:, None] > 1e-6, rel / np.maximum(rho, 1e-6)[:, None], [1.0, 0.0])
-        a_t = size / 2.0
-        a_r = a_t * (1.0 - self.foreshortening * np.clip(rho / self.window_radius, 0, 1) ** 2)
-        half = int(np.ceil(a_t.max(initial=1.0) + 2))
-        off = np.arange(-half, half + 1)
-        ix = np.floor(position[:, 0]).astype(int)
-        iy = np.floor(position[:, 1]).astype(int)
-        gx = ix[:, None, None] + off[None, None, :]
-        gy = iy[:, None, None] + off[None, :, None]
-        dx = gx - position[:, 0, None, None]
-        dy = gy - position[:, 1, None, None]
-        u = dx * radial[:, 0, None, None] + dy * radial[:, 1, None, None]
-        v = -dx * radial[:, 1, None, None] + dy * radial[:, 0, None, None]
-        rn = np.sqrt((u / a_r[:, None, None]) ** 2 + (v / a_t[:, None, None]) ** 2)
-        mean_r = np.sqrt(a_r * a_t)[:, None, None]
-        cover = np.clip(0.5 - (rn - 1.0) * mean_r, 0.0, 1.0)  # ~1 px linear edge: area coverage
-        inside = (gx >= 0) & (gx < w) & (gy >= 0) & (gy < h)
-        cover = np.where(inside, cover, 0.0)
-        gx, gy = np.clip(gx, 0, w - 1), np.clip(gy, 0, h - 1)
-        c = cover[..., None].astype(np.float32)
-        img[gy, gx] = img[gy, gx] * (1.0 - c) + MARKER_GREY * c
-        return 2.0 * np.sqrt(a_r * a_t)
+    def _set_base(self, spot: tuple[int, int] | None) -> None:
+        """Clutter, with the distractor (something moving behind the object, e.g. a hand) at `spot`."""
+        if spot == self._base_distractor:
+            return
+        self._base_distractor = spot
+        if spot is None:
+            self._base = self._clutter
+            return
+        img = self._background.copy()
+        cv2.ellipse(img, spot, (26, 38), 20.0, 0, 360, SKIN_BGR, -1, cv2.LINE_AA)
+        self._base = cv2.convertScaleAbs(img * self._window + HOUSING_GREY * (1.0 - self._window))
+
+    def _paint(self, box: tuple[int, int, int, int], patch: ObjectPatch | None, occlusion: float) -> None:
+        """Redraw the layer beneath the markers on `box`: base, the object patch (if any), occluder."""
+        y0, y1, x0, x1 = box
+        region = self._base[y0:y1, x0:x1]
+        if patch is not None:
+            region = cv2.blendLinear(patch.colour, region, patch.soft, 1.0 - patch.soft)
+        if occlusion > 0:
+            shade = 1.0 - 0.9 * self._blob_mask(occlusion, 1)[y0:y1, x0:x1]
+            region = cv2.convertScaleAbs(region * shade[:, :, None])
+        self._under[y0:y1, x0:x1] = region
+
+    # ---- markers and the noise-free frame ---------------------------------------------------
+    def _clean_frame(self, position: np.ndarray, size: np.ndarray, look: Appearance) -> np.ndarray:
+        """The noise-free frame (uint8): markers over the layer beneath, lighting, glare, blur."""
+        if not (np.abs(position - self._drawn_position).max(initial=0.0) <= TOLERANCE_PX
+                and np.abs(size - self._drawn_size).max(initial=0.0) <= TOLERANCE_PX):
+            self._drawn_position, self._drawn_size = position.copy(), size.copy()
+            self._patches = self._painter.patches(position, size)
+            self._diameters = self._patches.diameter
+            self._clean_key = None
+        key = (self._shown, look.gain, look.gradient, look.glare, look.blur)
+        if key == self._clean_key:
+            return self._clean
+        self._seen = self._visible(self._drawn_position, look)
+        clean = self._under.copy()
+        self._painter.paint(clean, self._patches)
+        if not look.plain:
+            img = clean.astype(np.float32)
+            if look.gain != 1.0 or look.gradient:
+                light = look.gain * (1.0 + look.gradient * (self._xx / self.image_size[0] - 0.5))
+                img *= light[:, :, None]
+            if look.glare > 0:
+                img += (self._blob_mask(look.glare, 2) * 1.2)[:, :, None] * (255.0 - img)
+            if look.blur > 0:
+                img = cv2.GaussianBlur(img, (0, 0), look.blur)
+            clean = cv2.convertScaleAbs(img)  # >= 0: a rounding, saturating cast
+        self._clean, self._clean_key = clean, key
+        return clean
 
     def render(self, position: np.ndarray | None = None, size: np.ndarray | float | None = None,
                obj: ObjectInfo | None = None, obj_shift: float = 0.0,
@@ -200,45 +265,30 @@ class SyntheticFingerVision:
         position = self.origin if position is None else np.asarray(position, float)
         if position.shape != self.origin.shape:
             raise ValueError(f"positions have shape {position.shape}, the sensor has {self.origin.shape}")
-        size = np.broadcast_to(np.asarray(self.marker_size if size is None else size, float),
-                               (len(position),))
-        img = self._background.copy()
-        if distractor is not None:  # something moving behind the object, e.g. a hand
-            cv2.ellipse(img, (int(distractor[0]), int(distractor[1])), (26, 38), 20.0, 0, 360,
-                        SKIN_BGR, -1, cv2.LINE_AA)
-            img = img * self._window + HOUSING_GREY * (1.0 - self._window)
-        mask = np.zeros(self.image_size[::-1], bool)
-        truth_obj = ObjectInfo()
-        if obj is not None and obj.present and obj.area > 0:
-            soft, colour = self._object(obj, obj_shift)
-            soft *= self._window[:, :, 0]
-            img += soft[:, :, None] * (colour - img)
-            mask = soft >= 0.5
-            truth_obj = object_info_from_mask(mask)
-        dark = self._blob_mask(appearance.occlusion, 1)
-        if appearance.occlusion > 0:
-            img *= (1.0 - 0.9 * dark)[:, :, None]
-        diameters = self._markers(img, position, size)
-        if appearance.gain != 1.0 or appearance.gradient:
-            light = appearance.gain * (1.0 + appearance.gradient * (self._xx / self.image_size[0] - 0.5))
-            img *= light[:, :, None]
-        glare = self._blob_mask(appearance.glare, 2)
-        if appearance.glare > 0:
-            img += (glare * 1.2)[:, :, None] * (255.0 - img)
-        if appearance.blur > 0:
-            img = cv2.GaussianBlur(img, (0, 0), appearance.blur)
-        if appearance.noise > 0:
-            img += (self._rng.standard_normal(img.shape[:2], np.float32) * appearance.noise)[:, :, None]
-        image = np.clip(img + 0.5, 0, 255).astype(np.uint8)
-        visible = self._visible(position, dark, glare)
-        return RenderedFrame(image, Truth(position.copy(), diameters, visible, mask, truth_obj, obj_shift))
+        size = np.asarray(self.marker_size if size is None else size, float)
+        if size.shape != (len(position),):
+            size = np.full(len(position), size)
+        self._update_under(obj, obj_shift, appearance.occlusion, distractor)
+        clean = self._clean_frame(position, size, appearance)
+        image = self._noise_bank(appearance.noise).add(clean) if appearance.noise > 0 else clean.copy()
+        mask, truth_obj = self._object_truth
+        place = self._shown.place
+        return RenderedFrame(image, Truth(self._drawn_position.copy(), self._diameters, self._seen, mask,
+                                          truth_obj, place.shift if place is not None else obj_shift))
 
-    def _visible(self, position: np.ndarray, dark: np.ndarray, glare: np.ndarray) -> np.ndarray:
+    def _noise_bank(self, std: float) -> NoiseBank:
+        if std not in self._noise:
+            self._noise[std] = NoiseBank(std, self.image_size, self._noise_seed + len(self._noise))
+        return self._noise[std]
+
+    def _visible(self, position: np.ndarray, look: Appearance) -> np.ndarray:
         """Markers wholly inside the image and the window and clear of occluders and glare."""
         w, h = self.image_size
         inside = (position[:, 0] >= 0) & (position[:, 0] < w) & (position[:, 1] >= 0) & (position[:, 1] < h)
         rim = np.linalg.norm(position - self._centre, axis=1) < self.window_radius - 4
-        hidden = np.maximum(dark, glare)
+        if look.occlusion <= 0 and look.glare <= 0:
+            return inside & rim
+        hidden = np.maximum(self._blob_mask(look.occlusion, 1), self._blob_mask(look.glare, 2))
         angles = np.linspace(0, 2 * np.pi, 8, endpoint=False)
         ring = np.concatenate([[[0.0, 0.0]], (self.marker_size / 2 + 1) * np.column_stack(
             [np.cos(angles), np.sin(angles)])])  # the centre and a circle just outside the marker
@@ -251,16 +301,20 @@ class SyntheticFingerVision:
 def pixel_level_sense(world: World, sensors: Mapping[str, SensorModel], clock: SimClock, seed: int,
                       preset: str = "fast") -> Callable[[], dict[str, TactileState]]:
     """Perception source of the simulated cell that renders each finger's frame and runs the real
-    FingerVision pipeline on it (calibrated at start on frames with no contact)."""
+    FingerVision pipeline on it (calibrated at start on frames with no contact).
+
+    The markers are drawn where the contact model puts them without its position noise: the
+    tracking noise comes from the image noise, as on a real sensor."""
     from perception.config import load_config
     from perception.fingervision import (
         FingerVision,  # the real pipeline, as on the robot
     )
 
     fps = 1.0 / clock.period
-    cameras, pipelines = {}, {}
+    cameras, pipelines, models = {}, {}, {}
     for i, finger in enumerate(FINGERS):
         sensor = sensors[finger]
+        models[finger] = dataclasses.replace(sensor, noise_px=0.0)
         camera = SyntheticFingerVision(sensor.origin, sensor.marker_size, tuple(sensor.image_size),
                                        seed=seed * 2 + i)
         pipeline = FingerVision(load_config(preset, camera_fps=fps), finger)
@@ -272,6 +326,7 @@ def pixel_level_sense(world: World, sensors: Mapping[str, SensorModel], clock: S
             pipeline.proximity.add_object(sample.image, sample.truth.object_mask)
         cameras[finger], pipelines[finger] = camera, pipeline
     shift = {finger: 0.0 for finger in FINGERS}
+    fields = {finger: _field_of(models[finger]) for finger in FINGERS}
 
     def sense() -> dict[str, TactileState]:
         contacts = world.contacts()
@@ -279,10 +334,26 @@ def pixel_level_sense(world: World, sensors: Mapping[str, SensorModel], clock: S
         states = {}
         for finger in FINGERS:
             contact = contacts[finger]
-            truth = sensors[finger].state(contact, now).markers
+            position, size = fields[finger](contact)
             shift[finger] += SLIP_PX_PER_UNIT * contact.slip
-            frame = cameras[finger].render(truth.position, truth.size, contact.obj, shift[finger])
+            frame = cameras[finger].render(position, size, contact.obj, shift[finger])
             states[finger] = pipelines[finger].process(frame.image, now)
         return states
 
     return sense
+
+
+def _field_of(model: SensorModel) -> Callable[[FingerContact], tuple[np.ndarray, np.ndarray]]:
+    """Marker positions and sizes of a noise-free contact model, computed again only when the
+    loads on the fingertip change."""
+    last: list = [None, None]
+
+    def field(contact: FingerContact) -> tuple[np.ndarray, np.ndarray]:
+        centre = None if contact.centre is None else tuple(np.asarray(contact.centre, float).tolist())
+        loads = (float(contact.normal), *np.asarray(contact.shear, float).tolist(), float(contact.torque), centre)
+        if loads != last[0]:
+            markers = model.state(contact, 0.0).markers
+            last[:] = [loads, (markers.position, markers.size)]
+        return last[1]
+
+    return field
