@@ -36,16 +36,33 @@ def report(exc: FvtreeError) -> int:
     return exc.exit_code
 
 
+def _validate_file(path: str, cell: bool) -> str:
+    """Check one input file whole, touching no device: a cell file (`cell`), a design model
+    (`.json`) or a tree; returns what it holds, or raises a located FvtreeError."""
+    if cell:
+        from drivers.cell_builders import validate
+
+        spec = validate(path)
+        return f"cell {spec['name']!r}, kind {spec['kind']}"
+    if Path(path).suffix == ".json":
+        from assembly.design import DesignModel
+
+        design = DesignModel.load(path)
+        return f"design, {len(design.elements())} elements on {len(design.plates())} plates"
+    doc = _load(path)
+    return f"{doc.name}, {sum(1 for _ in _walk(doc.root))} nodes"
+
+
 def cmd_validate(args) -> int:
     bad = 0
-    for path in args.trees:
+    for path in args.files:
         try:
-            doc = _load(path)
+            what = _validate_file(path, args.cell)
         except FvtreeError as exc:
             bad += 1
             report(exc)
             continue
-        print(f"{path}: ok ({doc.name}, {sum(1 for _ in _walk(doc.root))} nodes)")
+        print(f"{path}: ok ({what})")
     return EXIT_USAGE if bad else 0
 
 
@@ -55,15 +72,30 @@ def _walk(spec):
         yield from _walk(child)
 
 
+RUN_EXIT = {"SUCCESS": 0, "FAULT": 3, "CRASHED": 4}  # any other result: EXIT_FAILURE
+
+
 def cmd_run(args) -> int:
     from assembly.session import run_tree
 
     summary = run_tree(
         args.tree, cell=args.cell, seed=args.seed, realtime=args.speed == "realtime",
         perception=args.perception, runs_dir=Path(args.runs_dir), resume=args.resume,
-        estop_at=args.estop_at, max_time=args.max_time, plots=not args.no_plots,
+        estop_at=args.estop_at, max_time=args.max_time, plots=not args.no_plots, marks=dict(args.mark),
     )
-    return 0 if summary["status"] == "SUCCESS" else EXIT_FAILURE
+    if summary.get("nothing_to_do"):
+        return 0
+    if args.debug and summary.get("traceback"):
+        print(summary["traceback"], file=sys.stderr, end="")
+    return RUN_EXIT.get(summary["status"], EXIT_FAILURE)
+
+
+def _mark(text: str) -> tuple[str, str]:
+    """argparse type: ELEMENT=placed|planned."""
+    element, _, status = text.partition("=")
+    if not element or status not in ("placed", "planned"):
+        raise argparse.ArgumentTypeError(f"expected ELEMENT=placed or ELEMENT=planned, got {text!r}")
+    return element, status
 
 
 def cmd_show(args) -> int:
@@ -177,10 +209,16 @@ def parser() -> argparse.ArgumentParser:
     r.add_argument("--max-time", type=POSITIVE, default=3600.0, metavar="SECONDS",
                    help="give up after this much cell time")
     r.add_argument("--no-plots", action="store_true", help="skip the PNG charts")
+    r.add_argument("--mark", type=_mark, action="append", default=[], metavar="ELEMENT=placed|planned",
+                   help="with --resume: after checking the cell, mark an element a stopped run left being "
+                        "placed (placed: it stands; planned: build it again)")
     r.set_defaults(func=cmd_run)
 
-    v = sub.add_parser("validate", help="check tree files without running them")
-    v.add_argument("trees", nargs="+")
+    v = sub.add_parser("validate", help="check tree, design (.json) or cell files without running or connecting")
+    v.add_argument("files", nargs="+", metavar="FILE")
+    v.add_argument("--cell", action="store_true",
+                   help="the files are cell files: check them whole (types, finite values, home inside the "
+                        "safety box) without touching a device")
     v.set_defaults(func=cmd_validate)
 
     s = sub.add_parser("show", help="print a tree with its nodes' kinds, params and statuses")
@@ -218,7 +256,7 @@ def parser() -> argparse.ArgumentParser:
     tr = sub.add_parser("train", help="train ForceLearn (force) or StirLearn (stir) on a recording")
     tr.add_argument("kind", choices=("force", "stir"))
     tr.add_argument("data", type=_existing_file, help="recording made by fvtree record")
-    tr.add_argument("--out", required=True, help="model file to write (.joblib)")
+    tr.add_argument("--out", required=True, help="model file to write (.npz)")
     tr.add_argument("--seed", type=SEED, default=0)
     tr.set_defaults(func=cmd_train)
     return p
@@ -232,6 +270,9 @@ def main(argv: list[str] | None = None) -> int:
         return args.func(args)
     except FvtreeError as exc:
         return report(exc)
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM outside a tick loop (which halts the run itself)
+        print("interrupted", file=sys.stderr)
+        return 130
     except Exception as exc:  # noqa: BLE001 - last resort: one line unless --debug
         if args.debug:
             raise

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -48,3 +49,33 @@ def append_json_line(path: Path, record: dict) -> None:
         f.write(json.dumps(record, default=to_jsonable) + "\n")
         f.flush()
         os.fsync(f.fileno())
+
+
+def append_json_line_or_stderr(path: Path, record: dict) -> bool:
+    """Append one JSON line to `path`, or, when that fails, write it to stderr so that it is not
+    lost; returns whether it reached the file."""
+    try:
+        append_json_line(path, record)
+        return True
+    except OSError as exc:
+        sys.stderr.write(f"cannot append to {path} ({exc.strerror or exc}); the record: "
+                         + json.dumps(record, default=to_jsonable) + "\n")
+        sys.stderr.flush()
+        return False
+
+
+def read_json_lines(path: Path) -> list[dict]:
+    """The records of a JSON-lines file (none if it is missing), skipping a line torn by a crash."""
+    records = []
+    try:
+        text = Path(path).read_text()
+    except FileNotFoundError:
+        return records
+    for line in text.splitlines():
+        try:
+            record = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        if isinstance(record, dict):
+            records.append(record)
+    return records

@@ -12,9 +12,11 @@ class ForEachElement(py_trees.decorators.Decorator):
     """Runs its child once per unplaced element, in build order.
 
     Before each run it publishes the element's design entry on /task/element (and the plates on
-    /task/plates); when the child succeeds it hands /task/asbuilt to the design bridge, which
-    records the placement atomically. SUCCESS when every element is placed; FAILURE as soon as
-    one element fails (the model keeps what was placed, so a re-run resumes there).
+    /task/plates). After each tick of the child it hands a new /task/asbuilt record of the
+    element to the design bridge, which writes it durably before the next tick: `placing` (the
+    skill is about to open the fingers) and then `placed`. SUCCESS when every element is placed;
+    FAILURE as soon as one element fails, or its child succeeds without a `placed` record (the
+    model keeps what was placed, so a re-run resumes there).
     """
 
     def __init__(self, name: str, child: py_trees.behaviour.Behaviour, only: list[str] | None = None):
@@ -24,6 +26,7 @@ class ForEachElement(py_trees.decorators.Decorator):
         self.bridge = None
         self.queue: list[str] = []
         self.current: str | None = None
+        self._record: dict | None = None  # the last /task/asbuilt record handed on
         self.bb = self.attach_blackboard_client(name=name)
         for key in (keys.ELEMENT, keys.PLATES):
             self.bb.register_key(key=key, access=Access.WRITE)
@@ -41,8 +44,15 @@ class ForEachElement(py_trees.decorators.Decorator):
             order = [e for e in order if e in self.only]
         return [e for e in order if not self.design.is_placed(e)]
 
+    def _left_placing(self) -> bool:
+        """The current element's release began before this attempt and was never confirmed:
+        building it again could place it twice, so a person must check it first."""
+        return (self._record is None and self.current is not None
+                and self.design.graph.nodes[self.current].get("status") == "placing")
+
     def _publish_next(self) -> None:
         self.current = self.queue.pop(0) if self.queue else None
+        self._record = None
         if self.current is not None:
             self.bb.set(keys.ELEMENT, self.design.element(self.current), overwrite=True)
             self.bb.set(keys.PLATES, self.design.plates(), overwrite=True)
@@ -55,7 +65,11 @@ class ForEachElement(py_trees.decorators.Decorator):
     def tick(self):
         if self.status != Status.RUNNING:
             self.initialise()
-        if self.current is None:  # nothing left to build
+        if self._left_placing():
+            self.feedback_message = (f"element {self.current} was being released when its placement "
+                                     "stopped: check it before building it again")
+            new_status = Status.FAILURE
+        elif self.current is None:  # nothing left to build
             self.feedback_message = "all elements placed"
             new_status = Status.SUCCESS
         else:
@@ -68,6 +82,7 @@ class ForEachElement(py_trees.decorators.Decorator):
 
     def update(self) -> Status:
         status = self.decorated.status
+        self._hand_on_record()
         if status == Status.FAILURE:
             if self.bridge:
                 self.bridge.event("failed", element=self.current, node=self.decorated.name,
@@ -75,13 +90,22 @@ class ForEachElement(py_trees.decorators.Decorator):
             return Status.FAILURE
         if status != Status.SUCCESS:
             return status
-        asbuilt = self.bb.get(keys.ASBUILT) if self.bb.exists(keys.ASBUILT) else None
-        if asbuilt is None or asbuilt.get("element") != self.current:
+        if self._record is None or self._record.get("status", "placed") != "placed":
             self.feedback_message = f"{self.current}: child succeeded without recording an as-built pose"
             return Status.FAILURE
-        if self.bridge:
-            self.bridge.record_placement(self.current, asbuilt["pose"], asbuilt.get("load"))
-        else:
-            self.design.graph.nodes[self.current]["status"] = "placed"
         self._publish_next()
         return Status.SUCCESS if self.current is None else Status.RUNNING
+
+    def _hand_on_record(self) -> None:
+        """Record a new /task/asbuilt record of the current element (`placing` or `placed`)."""
+        record = self.bb.get(keys.ASBUILT) if self.bb.exists(keys.ASBUILT) else None
+        if record is None or record is self._record or record.get("element") != self.current:
+            return
+        self._record = record
+        status = record.get("status", "placed")
+        if self.bridge is None:
+            self.design.graph.nodes[self.current]["status"] = status
+        elif status == "placing":
+            self.bridge.record_placing(self.current, record["pose"], record.get("load"))
+        else:
+            self.bridge.record_placement(self.current, record["pose"], record.get("load"))

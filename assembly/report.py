@@ -1,6 +1,7 @@
 """Run summaries: per placed element, the chosen position against the true maximum-load
-position with the force regret (from the simulated world's truth), the scene's metrics, sim and
-wall time, and a load-profile chart."""
+position with the force regret (from the simulated world's truth, judged when the element was
+placed: a resumed run keeps the figures of what was placed before it), the scene's metrics, the
+arm and gripper faults, sim and wall time, and a load-profile chart."""
 
 from __future__ import annotations
 
@@ -18,12 +19,18 @@ from drivers.protocols import World
 CURVE = "true_load_curve"  # a world's truth per element: the true load along the plate, for charts
 
 
-def summarize(result: RunResult, cell: Cell, design: DesignModel | None) -> dict:
+def summarize(result: RunResult, cell: Cell, design: DesignModel | None,
+              kept: dict[str, dict] | None = None) -> dict:
     """The run's summary: status, where it stopped, timing, safety, the scene's metrics and, per
-    element of the design, its as-built data with the world's truth about it (simulation only)."""
+    element of the design, its as-built data with the world's truth about it (simulation only);
+    `kept` entries (elements placed before a resume, from the earlier summary) stay as they were."""
     truth = cell.world.truth() if cell.world is not None else {}
+    kept = kept or {}
     elements = {}
     for eid in (design.build_order() if design else []):
+        if eid in kept:
+            elements[eid] = kept[eid]
+            continue
         node = design.graph.nodes[eid]
         entry = {"status": node.get("status", "planned"), "measured_load_px": node.get("measured_load"),
                  "asbuilt_pose": node.get("asbuilt_pose")}
@@ -36,7 +43,7 @@ def summarize(result: RunResult, cell: Cell, design: DesignModel | None) -> dict
         "ticks": result.ticks, "sim_time_s": round(result.sim_time, 3),
         "wall_time_s": round(result.wall_time, 3),
         "real_time_factor": round(result.real_time_factor, 1),
-        "safety_clamps": cell.arm.clamped, "arm_fault": cell.arm.fault(),
+        "safety_clamps": cell.arm.clamped, "arm_fault": cell.arm.fault(), "gripper_fault": cell.gripper.fault(),
         "elements": elements,
     }
 
@@ -57,6 +64,8 @@ def format_summary(summary: dict) -> str:
                 f"regret {e['regret'] * 100:.3f} %")
         elif e["status"] == "placed":
             lines.append(f"  {eid}: placed at {e['asbuilt_pose'][:3]}, measured load {e['measured_load_px']}")
+        elif e["status"] == "placing":
+            lines.append(f"  {eid}: being released when the run stopped: check it before resuming")
     for name, value in summary.get("metrics", {}).items():
         lines.append(f"  {name}: {value:.4g}" if isinstance(value, float) else f"  {name}: {value}")
     lines.append(f"  sim time {summary['sim_time_s']:.1f} s, wall time {summary['wall_time_s']:.2f} s, "

@@ -1,16 +1,20 @@
 """The tick loop of a run, on py_trees' `BehaviourTree`.
 
-Every tick: the stop policy latches e-stop inputs and the perception stage publishes
-/fv/left, /fv/right, /robot/*, /gripper/* and /task/estop (pre-tick handlers); the tree ticks
-once; the arm's watchdog is kicked, then the tip, the load profiles, the transition log and the
-progress line are updated (post-tick handlers); the cell advances one period of its clock
-(simulated time, or a sleep to the next period on a real cell). After the tick the stop policy
-may halt the run.
+Every tick: the stop policy latches e-stop inputs, the perception stage publishes
+/fv/left, /fv/right, /robot/*, /gripper/* and /task/estop, and the cell supervisor (when the run
+is supervised) trips arm and gripper on any fault (pre-tick handlers); the tree ticks once; the
+arm's watchdog is kicked, then the tip, the load profiles, the transition log and the progress
+line are updated (post-tick handlers); the cell advances one period of its clock (simulated time,
+or a sleep to the next period on a real cell). After the tick the stop policy may halt the run.
+
+The loop is fail-safe: an exception anywhere in a tick (a skill, a handler, the cell) halts the
+tree, stops arm and gripper and ends the run with status CRASHED, naming the node that raised.
 """
 
 from __future__ import annotations
 
 import time
+import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -24,6 +28,7 @@ from assembly.load_profiles import LoadProfiles
 from assembly.loader import BuiltTree
 from assembly.progress import Progress
 from assembly.stop_policy import Stop, StopPolicy
+from assembly.supervisor import Supervision, Supervisor
 from assembly.tip import Tip
 from assembly.transitions import TransitionLog
 from drivers.cell import Cell
@@ -31,13 +36,14 @@ from drivers.cell import Cell
 
 @dataclass
 class RunResult:
-    status: str  # SUCCESS | FAILURE | HALTED | ESTOP | TIMEOUT
+    status: str  # SUCCESS | FAILURE | HALTED | ESTOP | TIMEOUT | FAULT | CRASHED
     ticks: int
     sim_time: float
     wall_time: float
     where: str  # node path where the run ended or stopped
     message: str = ""
     profiles: dict[str, dict] = field(default_factory=dict)  # element -> load profile
+    traceback: str = ""  # CRASHED: where the exception came from
 
     @property
     def real_time_factor(self) -> float:
@@ -48,14 +54,17 @@ class Runner:
     """Runs a built tree on a cell, tick by tick; call `setup()` before the first tick.
 
     With a run directory it writes the transition log there and stops when an `ESTOP` file
-    appears in it; `progress` receives a line each time the tree's tip moves.
+    appears in it; `progress` receives a line each time the tree's tip moves. With `supervision`
+    the cell supervisor watches the cell every tick (`fvtree run` always supervises; the test
+    harness, whose perception is scripted, does not).
     """
 
     def __init__(self, tree: BuiltTree, cell: Cell, run_dir: Path | None = None,
                  bridge: DesignBridge | None = None, realtime: bool = False,
                  progress: Callable[[str], None] | None = None,
                  sense: Callable[[], dict] | None = None,
-                 estop_at: float | None = None, max_time: float = 3600.0):
+                 estop_at: float | None = None, max_time: float = 3600.0,
+                 supervision: Supervision | None = None):
         self.tree = tree
         self.cell = cell
         self.bridge = bridge
@@ -65,11 +74,15 @@ class Runner:
         self.stop_policy = StopPolicy(cell, self.tip, bridge, run_dir / "ESTOP" if run_dir else None,
                                       estop_at, max_time)
         self.perception = PerceptionStage(cell, sense)
+        self.supervisor = Supervisor(cell, supervision, tree, self.tip) if supervision else None
         self.load_profiles = LoadProfiles()
         self.log = TransitionLog(tree, cell.clock, run_dir / "transitions.jsonl") if run_dir else None
         self.progress = Progress(self.tip, cell.clock, progress) if progress else None
         self.behaviour_tree.add_pre_tick_handler(self.stop_policy.before_tick)
         self.behaviour_tree.add_pre_tick_handler(self.perception)
+        if self.supervisor is not None:
+            self.behaviour_tree.add_pre_tick_handler(self.supervisor)
+            self.stop_policy.checks.insert(0, self.supervisor.check)
         for handler in (self._kick_watchdog, self.tip, self.load_profiles, self.log, self.progress):
             if handler is not None:
                 self.behaviour_tree.add_post_tick_handler(handler)
@@ -111,8 +124,10 @@ class Runner:
                     break
                 if self.realtime and self.cell.simulated:
                     self._pace(start)
-        except KeyboardInterrupt:
-            return self._stopped(self.stop_policy.interrupted(), start)
+        except KeyboardInterrupt as interrupt:
+            return self._stopped(self.stop_policy.interrupted(interrupt), start)
+        except Exception as exc:  # noqa: BLE001 - the fail-safe: whatever raised, the cell stops
+            return self._crashed(exc, start)
         finally:
             if self.log:
                 self.log.close()
@@ -126,16 +141,36 @@ class Runner:
         if ahead > 0:
             time.sleep(ahead)
 
-    def halt(self) -> None:
-        """Stop the tree (every running skill's terminate runs), the arm and the gripper."""
+    def halt(self, where: str | None = None, event: str = "halted", **data) -> None:
+        """Stop the tree (every running skill's terminate runs), the arm and the gripper; the
+        design bridge logs `event` at `where` (default: the tip) with `data`."""
         self.tip(self.behaviour_tree)
-        self.stop_policy.halt(self.behaviour_tree.root, self.tip.path)
+        self.stop_policy.halt(self.behaviour_tree.root, where or self.tip.path, event, **data)
         if self.log:
             self.log.record(self.ticks)
 
     def _stopped(self, stop: Stop, start: float) -> RunResult:
-        self.halt()
-        return self._result(stop.status, start, stop.where or self.tip.path, stop.message)
+        where = stop.where or self.tip.path
+        self.halt(where, status=stop.status, message=stop.message)
+        return self._result(stop.status, start, where, stop.message)
+
+    def _crashed(self, exc: Exception, start: float) -> RunResult:
+        where = self._raiser(exc) or self.tip.path
+        message = f"{type(exc).__name__}: {exc} (in {where})"
+        trace = "".join(traceback.format_exception(exc))
+        self.halt(where, "crashed", message=message, traceback=trace)
+        result = self._result("CRASHED", start, where, message)
+        result.traceback = trace
+        return result
+
+    def _raiser(self, exc: Exception) -> str | None:
+        """The path of the deepest node of this tree on the exception's stack, if any."""
+        paths = {id(node): path for path, node in self.tree.nodes.items()}
+        found, frame = None, exc.__traceback__
+        while frame is not None:
+            found = paths.get(id(frame.tb_frame.f_locals.get("self")), found)
+            frame = frame.tb_next
+        return found
 
     def _failure(self) -> tuple[str, str]:
         """The path and feedback of the deepest failed node: where and why the tree failed."""

@@ -1,80 +1,149 @@
 """One `fvtree run`: load and validate the tree, set up the run directory and the design bridge
-(resuming a previous run if asked), build the cell, tick to the end, report."""
+(resuming a previous run if asked), build the cell, tick to the end under the cell supervisor,
+report. The cell is closed whatever happens once it is built, and SIGTERM halts the run like
+Ctrl-C."""
 
 from __future__ import annotations
 
 import gc
+import json
+import signal
+import sys
+import threading
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
 
+import numpy as np
+
 from assembly.blackboard import clear_blackboard
 from assembly.design import DesignBridge, DesignModel
 from assembly.errors import TreeError
-from assembly.loader import build, load_tree
+from assembly.loader import TreeDocument, build, load_tree
 from assembly.progress import end_stderr_progress, stderr_progress
 from assembly.report import format_summary, plot_profiles, summarize, write_summary
-from assembly.run_dir import new_run_dir
+from assembly.run_dir import ASBUILT_FILE, SUMMARY_FILE, find_run, new_run_dir, write_run_file
 from assembly.runner import Runner
+from assembly.stop_policy import Terminated
+from assembly.supervisor import Supervision
 from drivers.cell_builders import load_cell
 
-
-def _resume_dir(runs_dir: Path, resume: str, tree_name: str) -> Path:
-    if resume != "latest":
-        path = Path(resume)
-        if not (path / "asbuilt.json").exists():
-            raise TreeError("not a run directory with an as-built model (asbuilt.json)", str(path))
-        return path
-    candidates = sorted(p for p in runs_dir.glob(f"*-{tree_name}*") if (p / "asbuilt.json").exists())
-    if not candidates:
-        raise TreeError(f"no earlier run of {tree_name!r} to resume", str(runs_dir))
-    return candidates[-1]
+MARKS = ("placed", "planned")  # what a person may mark an element left `placing`
 
 
 def run_tree(tree_path: str, cell: str = "sim", seed: int = 0, realtime: bool = False,
              perception: str | None = None, runs_dir: Path = Path("runs"), resume: str | None = None,
              estop_at: float | None = None, max_time: float = 3600.0, plots: bool = True,
-             quiet: bool = False) -> dict:
-    """Run a tree file end to end; returns the summary (also written to the run directory)."""
+             quiet: bool = False, marks: dict[str, str] | None = None) -> dict:
+    """Run a tree file end to end; returns the summary (also written to the run directory).
+
+    `marks` ({element: placed|planned}, resuming only) records a person's check of elements a
+    stopped run left being placed."""
     doc = load_tree(tree_path)
+    supervision = Supervision.of_cell(cell)
     clear_blackboard()
-    design = doc.design
+    before: dict = {}
     if resume:
-        run_dir = _resume_dir(runs_dir, resume, doc.name)
-        design = DesignModel.load(run_dir / "asbuilt.json")
+        run_dir = find_run(runs_dir, resume, doc)
+        before = _previous_summary(run_dir)
+        bridge = _resumed_bridge(run_dir, doc, marks or {})
+        if bridge is None:
+            return _nothing_to_do(run_dir, before, quiet)
     else:
+        if marks:
+            raise TreeError("--mark records a check of a stopped run: use it with --resume", str(tree_path))
         run_dir = new_run_dir(runs_dir, doc.name)
-    bridge = (DesignBridge(design, run_dir / "asbuilt.json", run_dir / "events.jsonl")
-              if design is not None else None)
+        write_run_file(run_dir, doc, cell=cell, seed=seed)
+        bridge = (DesignBridge(doc.design, run_dir / ASBUILT_FILE, run_dir / "events.jsonl")
+                  if doc.design is not None else None)
+    design = bridge.model if bridge else None
+    placed_before = [e for e in design.build_order() if design.is_placed(e)] if design else []
     # The simulated world is built from the original design: what is already placed stands.
-    scene_args = (doc.design or design).scene_args() if design is not None else {}
+    scene_args = doc.design.scene_args() if doc.design is not None else {}
     the_cell = load_cell(cell, doc.tick_hz, doc.scene, scene_args, seed=seed, perception=perception)
-    if resume and the_cell.world is not None and design is not None:
-        _stand_placed(the_cell.world, design)
-    built = build(doc)
-    if bridge:
-        bridge.event("start", tree=str(tree_path), cell=cell, seed=seed, resume=bool(resume))
-    runner = Runner(built, the_cell, run_dir, bridge, realtime=realtime,
-                    progress=None if quiet else stderr_progress, estop_at=estop_at, max_time=max_time)
     try:
+        if placed_before and the_cell.world is not None:
+            _stand_placed(the_cell.world, design, placed_before)
+        runner = Runner(build(doc), the_cell, run_dir, bridge, realtime=realtime,
+                        progress=None if quiet else stderr_progress, estop_at=estop_at, max_time=max_time,
+                        supervision=supervision)
+        if bridge:
+            bridge.event("start", tree=str(tree_path), cell=cell, seed=seed, resume=bool(resume))
         runner.setup()
-        with _frozen_heap():
+        with _frozen_heap(), _sigterm_halts():
             result = runner.run()
     finally:
         the_cell.close()
     if not quiet:
         end_stderr_progress()
-    summary = summarize(result, the_cell, bridge.model if bridge else None)
+    summary = summarize(result, the_cell, design, {e: before["elements"][e] for e in placed_before
+                                                   if e in before.get("elements", {})})
     summary["run_dir"] = str(run_dir)
-    if plots:
-        png = plot_profiles(result.profiles, summary, the_cell.world, run_dir / "load_profiles.png")
-        summary["plot"] = str(png) if png else None
-    write_summary(summary, run_dir)
+    _finish(summary, result, the_cell, run_dir, plots)
     if bridge:
         bridge.event("end", status=result.status, where=result.where, message=result.message)
     if not quiet:
         print(format_summary(summary))
         print(f"  run directory: {run_dir}" + (f" (chart: {summary.get('plot')})" if summary.get("plot") else ""))
+    return summary
+
+
+def _finish(summary: dict, result, cell, run_dir: Path, plots: bool) -> None:
+    """Chart and summary file; a run directory that cannot be written loses them, not the run."""
+    if result.traceback:
+        summary["traceback"] = result.traceback
+    try:
+        if plots:
+            png = plot_profiles(result.profiles, summary, cell.world, run_dir / "load_profiles.png")
+            summary["plot"] = str(png) if png else None
+        write_summary(summary, run_dir)
+    except OSError as exc:
+        print(f"cannot write the summary to {run_dir} ({exc.strerror or exc})", file=sys.stderr)
+
+
+def _previous_summary(run_dir: Path) -> dict:
+    """The summary an earlier session of this run wrote, if any."""
+    try:
+        return json.loads((run_dir / SUMMARY_FILE).read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def _resumed_bridge(run_dir: Path, doc: TreeDocument, marks: dict[str, str]) -> DesignBridge | None:
+    """The design bridge of a run to resume, caught up with its event log and a person's marks;
+    None when nothing is left to build. An element left `placing` stops the resume."""
+    bridge = DesignBridge(DesignModel.load(run_dir / ASBUILT_FILE), run_dir / ASBUILT_FILE,
+                          run_dir / "events.jsonl")
+    bridge.catch_up()
+    design = bridge.model
+    for eid, status in marks.items():
+        if eid not in design.elements():
+            raise TreeError(f"--mark {eid}={status}: no element {eid!r} in the design", str(run_dir / ASBUILT_FILE))
+        if design.graph.nodes[eid].get("status") != "placing":
+            raise TreeError(f"--mark {eid}={status}: {eid} is {design.graph.nodes[eid].get('status', 'planned')!r}, "
+                            "not 'placing'; only an element left being placed needs a mark", str(run_dir / ASBUILT_FILE))
+        bridge.mark(eid, status)
+    for eid in design.build_order():
+        node = design.graph.nodes[eid]
+        if node.get("status") == "placing":
+            pose = np.round(node.get("asbuilt_pose") or [np.nan] * 3, 3)[:3].tolist()
+            raise TreeError(
+                f"element {eid} was being released on plate {node.get('plate')} at {pose} when the run stopped: "
+                "it may stand there, still be in the gripper, or have fallen, so it is not picked again",
+                str(run_dir / ASBUILT_FILE),
+                hint=f"check the cell, then resume with --mark {eid}=placed (it stands there) "
+                     f"or --mark {eid}=planned (remove it first; it will be built again)")
+    if all(design.is_placed(e) for e in design.build_order()) and design.build_order():
+        return None
+    return bridge
+
+
+def _nothing_to_do(run_dir: Path, before: dict, quiet: bool) -> dict:
+    """The summary of a run that has already placed every element."""
+    summary = {**before, "run_dir": str(run_dir), "nothing_to_do": True}
+    if not quiet:
+        print(f"nothing to do: every element of {run_dir} is placed"
+              + (f" (the run ended {before['status']})" if before.get("status") else ""))
     return summary
 
 
@@ -90,12 +159,28 @@ def _frozen_heap() -> Iterator[None]:
         gc.unfreeze()
 
 
-def _stand_placed(world, design: DesignModel) -> None:
-    """On resume in simulation, put already-placed elements where the as-built model says."""
-    import numpy as np
+def _raise_terminated(signum, frame) -> None:
+    raise Terminated()
 
-    for eid in design.build_order():
-        if design.is_placed(eid) and eid in world.elements:
+
+@contextmanager
+def _sigterm_halts() -> Iterator[None]:
+    """SIGTERM raises `Terminated` (a KeyboardInterrupt) in the tick loop, which halts the run
+    like Ctrl-C; the previous handler is restored after. Signals reach the main thread only."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _stand_placed(world, design: DesignModel, placed: list[str]) -> None:
+    """On resume in simulation, put already-placed elements where the as-built model says."""
+    for eid in placed:
+        if eid in world.elements:
             e = world.elements[eid]
             e.pose = np.array(design.graph.nodes[eid]["asbuilt_pose"], float)
             e.state = "standing"

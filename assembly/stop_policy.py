@@ -1,16 +1,19 @@
 """When a run stops before its tree finishes, and how it stops.
 
-A run stops on an e-stop (the cell's input, an `ESTOP` file in the run directory, or one
-scheduled at a cell time), when its cell-time limit passes, or on Ctrl-C. Stopping halts the
-tree: every running skill's `terminate` runs, the arm and the gripper stop and the design
-bridge hears of it.
+A run stops on an e-stop (the cell's input, an `ESTOP` file in the run directory checked every
+tick, or one scheduled at a cell time), when its cell-time limit passes, on Ctrl-C or SIGTERM
+(`Terminated`), or on a fault latched by the cell supervisor (`assembly.supervisor`, one of
+`checks`). Stopping halts the tree: every running skill's `terminate` runs, the arm and the
+gripper stop (even when a `terminate` raises) and the design bridge hears of it. Every stop
+message names the node that was running.
 """
 
 from __future__ import annotations
 
+import logging
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import py_trees
 from py_trees.common import Status
@@ -19,13 +22,19 @@ from assembly.design import DesignBridge
 from assembly.tip import Tip
 from drivers.cell import Cell
 
+log = logging.getLogger(__name__)
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the tick loop like Ctrl-C so that it halts the run the same way."""
+
 
 @dataclass(frozen=True)
 class Stop:
     """Why a run stopped: the result status, its message, and the node to name (None: the tip
     when the tree was halted)."""
 
-    status: str  # ESTOP | TIMEOUT | HALTED
+    status: str  # ESTOP | TIMEOUT | HALTED | FAULT
     message: str
     where: str | None = None
 
@@ -76,19 +85,27 @@ class StopPolicy:
 
     def _time_limit(self) -> Stop | None:
         if self.cell.clock.now() > self.max_time:
-            return Stop("TIMEOUT", f"no result within {self.max_time} s of cell time")
+            return Stop("TIMEOUT", f"no result within {self.max_time} s of cell time (during {self.tip.path})")
         return None
 
-    @staticmethod
-    def interrupted() -> Stop:
-        """The stop for Ctrl-C."""
-        return Stop("HALTED", "interrupted (Ctrl-C)")
+    def interrupted(self, interrupt: KeyboardInterrupt) -> Stop:
+        """The stop for Ctrl-C or SIGTERM."""
+        what = "SIGTERM" if isinstance(interrupt, Terminated) else "Ctrl-C"
+        return Stop("HALTED", f"interrupted ({what}) during {self.tip.path}")
 
-    def halt(self, root: py_trees.behaviour.Behaviour, where: str) -> None:
-        """Stop the tree (every running node's `terminate` runs), the arm and the gripper, and
-        tell the design bridge the run halted at `where`."""
-        root.stop(Status.INVALID)
-        self.cell.arm.stop()
-        self.cell.gripper.stop()
+    def halt(self, root: py_trees.behaviour.Behaviour, where: str, event: str = "halted", **data) -> None:
+        """Stop the tree (every running node's `terminate` runs, even after one raised), the arm
+        and the gripper, and log `event` (with `data`) at `where` through the design bridge."""
+        try:
+            for node in list(root.iterate()):  # children before their parents, as `root.stop` does
+                if node.status != Status.INVALID:
+                    try:
+                        node.stop(Status.INVALID)
+                    except Exception:  # one raising terminate must not skip the others
+                        log.exception("halting %s at %s", node.name, where)
+                        node.status = Status.INVALID  # halted all the same: its parents skip it
+        finally:
+            self.cell.arm.stop()
+            self.cell.gripper.stop()
         if self.bridge:
-            self.bridge.event("halted", node=where, estop=self.cell.estop)
+            self.bridge.event(event, node=where, estop=self.cell.estop, **data)

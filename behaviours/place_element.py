@@ -1,6 +1,7 @@
-"""Place the element: open the gripper gently with the leaky integrator
-x_t = a x_{t-1} - (1 - a) L (L = -1 while releasing), check the element stayed standing
-between the fingers, record the as-built pose and load, and back out."""
+"""Place the element: announce the release (/task/asbuilt with status `placing`, written to the
+as-built model by `for_each_element` before the fingers move), open the gripper gently with the
+leaky integrator x_t = a x_{t-1} - (1 - a) L (L = -1 while releasing), check the element stayed
+standing between the fingers, record it `placed` with its as-built pose and load, and back out."""
 
 from __future__ import annotations
 
@@ -33,6 +34,13 @@ class PlaceElement(ProgramSkill):
     def program(self):
         gripper = self.cell.gripper
         element = self.read(keys.ELEMENT)
+        pose = self.pose()
+        length = self.read(keys.ELEMENT_LENGTH, element["size"][0])
+        asbuilt = {"element": element["id"], "load": self.read(keys.MEASURED_LOAD),
+                   "pose": np.array([pose[0], pose[1], length / 2.0, 0.0, -np.pi / 2, 0.0])}  # upright
+        self.write(keys.ASBUILT, {**asbuilt, "status": "placing"})
+        self.feedback_message = "announcing the release"
+        yield  # the intent is on disk before the fingers open
         start, t0 = self.gripper_width(), self.now()
         target = min(start + self.p.opening, gripper.max_width)
         drive = LeakyIntegrator(self.p.alpha)
@@ -52,11 +60,7 @@ class PlaceElement(ProgramSkill):
         if not (left.obj.present or right.obj.present):
             return self.fail(f"element {element['id']} not seen between the fingers after release: "
                              "it fell")
-        pose = self.pose()
-        length = self.read(keys.ELEMENT_LENGTH, element["size"][0])
-        asbuilt = np.array([pose[0], pose[1], length / 2.0, 0.0, -np.pi / 2, 0.0])  # upright
-        self.write(keys.ASBUILT, {"element": element["id"], "pose": asbuilt,
-                                  "load": self.read(keys.MEASURED_LOAD)})
+        self.write(keys.ASBUILT, {**asbuilt, "status": "placed"})
         for target_pose in (translated(pose, self.p.retract),
                             translated(pose, np.add(self.p.retract, [0.0, 0.0, self.p.lift]))):
             fault = yield from self.move(target_pose, self.p.speed)

@@ -1,9 +1,11 @@
-"""The flagship assembly on the simulated cell: result, as-built data, logs, e-stop, resume,
-Ctrl-C and crash-safe writes."""
+"""The flagship assembly on the simulated cell: result, as-built data, logs, e-stop, resume (of
+exactly this tree, unchanged, never re-picking an element left being released), Ctrl-C and
+crash-safe writes."""
 
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +14,7 @@ import pytest
 from assembly import design as design_module
 from assembly.cli import main
 from assembly.design import DesignModel
+from assembly.errors import TreeError
 from assembly.files import atomic_write_json
 from assembly.loader import build, load_tree
 from assembly.runner import Runner
@@ -46,7 +49,8 @@ def test_run_directory_holds_the_as_built_model_and_logs(full_run):
         node = asbuilt.graph.nodes[eid]
         assert node["status"] == "placed" and len(node["asbuilt_pose"]) == 6 and node["measured_load"] > 0
     events = [e["event"] for e in lines(run_dir / "events.jsonl")]
-    assert events == ["start", "placed", "placed", "end"]
+    assert events == ["start", "placing", "placed", "placing", "placed", "end"]
+    assert json.loads((run_dir / "run.json").read_text())["tree"] == "architectural_assembly"
     transitions = lines(run_dir / "transitions.jsonl")
     assert transitions[0]["tick"] == 0 and {"t", "node", "from", "to", "feedback"} <= set(transitions[0])
     assert transitions[-1]["node"] == "main" and transitions[-1]["to"] == "SUCCESS"
@@ -75,6 +79,61 @@ def test_estop_halts_then_resume_skips_placed_elements(tmp_path):
     placed = [e["element"] for e in lines(run_dir / "events.jsonl") if e["event"] == "placed"]
     assert placed == ["E1", "E2"]  # E1 was not built twice
     assert second["elements"]["E2"]["regret"] < 0.01
+    assert second["elements"]["E1"] == first["elements"]["E1"]  # judged when placed, not again
+
+    third = run_tree(ASSEMBLY, runs_dir=tmp_path, resume="latest", quiet=True, plots=False)
+    assert third["nothing_to_do"] and third["status"] == "SUCCESS"
+    assert main(["run", ASSEMBLY, "--runs-dir", str(tmp_path), "--resume"]) == 0
+
+
+def test_a_resume_never_picks_again_an_element_left_being_released(tmp_path, capsys):
+    first = run_tree(ASSEMBLY, runs_dir=tmp_path, estop_at=78.5, quiet=True, plots=False)
+    assert first["status"] == "ESTOP" and first["where"].endswith("/prop/place")
+    assert first["elements"]["E1"]["status"] == "placing"
+    assert main(["run", ASSEMBLY, "--runs-dir", str(tmp_path), "--resume"]) == 2
+    err = capsys.readouterr().err
+    assert "asbuilt.json: element E1 was being released on plate P1 at [" in err
+    assert "--mark E1=placed" in err and "--mark E1=planned" in err
+
+    second = run_tree(ASSEMBLY, runs_dir=tmp_path, resume="latest", marks={"E1": "placed"}, quiet=True, plots=False)
+    assert second["status"] == "SUCCESS"
+    events = lines(Path(first["run_dir"]) / "events.jsonl")
+    assert [e["element"] for e in events if e["event"] == "placing"] == ["E1", "E2"]
+    assert [(e["element"], e["status"]) for e in events if e["event"] == "marked"] == [("E1", "placed")]
+
+
+def tree_copy(tmp_path: Path, name: str) -> Path:
+    """The assembly tree under another name, next to copies of its subtrees and design."""
+    for sub in ("subtrees", "design"):
+        if not (tmp_path / sub).exists():
+            shutil.copytree(TREES / sub, tmp_path / sub)
+    path = tmp_path / f"{name}.yaml"
+    path.write_text((TREES / "assembly.yaml").read_text().replace("name: architectural_assembly", f"name: {name}"))
+    return path
+
+
+def test_resume_takes_the_run_of_exactly_this_tree_unchanged(tmp_path):
+    runs = tmp_path / "runs"
+    asm, asm_b = tree_copy(tmp_path, "asm"), tree_copy(tmp_path, "asm_b")
+    mine = run_tree(str(asm), runs_dir=runs, estop_at=5.0, quiet=True, plots=False)
+    run_tree(str(asm_b), runs_dir=runs, estop_at=5.0, quiet=True, plots=False)  # later, and a prefix match
+    resumed = run_tree(str(asm), runs_dir=runs, resume="latest", estop_at=10.0, quiet=True, plots=False)
+    assert resumed["run_dir"] == mine["run_dir"]
+
+    asm.write_text(asm.read_text().replace("scan_step: 0.002", "scan_step: 0.003"))
+    with pytest.raises(TreeError, match="the tree .* changed since this run started"):
+        run_tree(str(asm), runs_dir=runs, resume="latest", quiet=True, plots=False)
+    with pytest.raises(TreeError, match="no earlier run of 'asm_c'"):
+        run_tree(str(tree_copy(tmp_path, "asm_c")), runs_dir=runs, resume="latest", quiet=True, plots=False)
+
+
+def test_a_tree_name_cannot_place_its_run_directory_outside_the_runs_directory(tmp_path):
+    tree = tmp_path / "escape.yaml"
+    tree.write_text('version: 1\nname: "../../x"\nroot: {skill: move_to, name: go, params: {offset: [0.01, 0, 0]}}\n')
+    summary = run_tree(str(tree), runs_dir=tmp_path / "runs", quiet=True, plots=False)
+    run_dir = Path(summary["run_dir"])
+    assert summary["status"] == "SUCCESS" and run_dir.parent == tmp_path / "runs"
+    assert run_dir.name.endswith("-x") and not (tmp_path / "x").exists()
 
 
 def test_ctrl_c_halts_every_running_skill_and_stops_the_arm(tmp_path):

@@ -51,7 +51,7 @@ def test_an_estop_names_the_node_running_when_it_came():
 
 def test_the_cell_time_limit_stops_the_run():
     result = runner(TWO_MOVES, max_time=0.5).run()
-    assert result.status == "TIMEOUT" and result.message == "no result within 0.5 s of cell time"
+    assert result.status == "TIMEOUT" and result.message == "no result within 0.5 s of cell time (during main/go)"
     assert 0.5 < result.sim_time < 0.65 and result.where == "main/go"
 
 
