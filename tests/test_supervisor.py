@@ -194,3 +194,23 @@ def test_supervision_settings_come_from_the_cell_file(tmp_path):
     with pytest.raises(CellFileError) as err:
         Supervision.of_cell(str(cell))
     assert err.value.line == 3 and "unhealthy_perception" in str(err.value.hint)
+
+
+@pytest.mark.parametrize("lead", [0.1, 0.5])
+def test_perception_freezing_just_before_contact_never_presses_harder_than_a_normal_contact(lead):
+    """descend_until_contact also watches the arm's force readback, and the supervisor the age of
+    the fingertip states: a stream that freezes `lead` s before the normal contact never lets the
+    element press harder than it does in a normal run."""
+    _, normal, _ = supervised_assembly(max_time=90.0)
+    descent = [(t, f) for t, tip, f, _ in normal.rows if tip.endswith("/descend")]
+    contact_at, normal_peak = descent[-1][0], max(f for _, f in descent)
+
+    def freeze(rec):
+        if rec.frozen is None and rec.cell.clock.now() >= contact_at - lead and rec.runner.tip.path.endswith("/descend"):
+            rec.freeze()
+
+    runner, recorder, result = supervised_assembly(freeze, max_time=90.0)
+    assert result.status == "FAULT" and "s old (limit 0.2 s)" in result.message
+    pressed = [f for _, tip, f, _ in recorder.rows if tip.endswith("/descend")]
+    assert max(pressed) <= normal_peak + 1e-6
+    assert_cell_stopped(runner)
