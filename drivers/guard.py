@@ -56,7 +56,7 @@ def finite_vector(what: str, value: Any, size: int = 6) -> np.ndarray:
         raise Refused(f"{what} {reprlib.repr(value)} is not a vector of numbers") from None
     if v.shape != (size,):
         raise Refused(f"{what} must be {size} numbers, got shape {v.shape}")
-    if not np.all(np.isfinite(v)):
+    if not math.isfinite(float(v @ v)) and not np.all(np.isfinite(v)):  # v @ v: a NaN or inf shows in one product
         raise Refused(f"{what} {v.tolist()} is not finite")
     return v
 
