@@ -44,9 +44,11 @@ class FindMaxLoad(ProgramSkill):
         "regrasp_force": Param("float", "gripper force limit of a re-grasp", 80.0, "N", min=1.0),
         "touch_eps": Param("float", "force change that means the foot touched the ground before a re-grasp",
                            0.5, "px", min=0.0),
+        "max_scan_force": Param("float", "TCP force the arm may feel while scanning before the scan stops "
+                                "(0: no check; cells without a force sensor read 0 N)", 100.0, "N", min=0.0),
     }
     READS = (keys.ELEMENT, keys.PLATES, keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT,
-             keys.ROBOT_MOVING, keys.GRIPPER_WIDTH, keys.GRIPPER_FAULT, keys.GRIPPER_MOVING)
+             keys.ROBOT_MOVING, keys.ROBOT_WRENCH, keys.GRIPPER_WIDTH, keys.GRIPPER_FAULT, keys.GRIPPER_MOVING)
     WRITES = (keys.LOAD_PROFILE, keys.BEST_POSE, keys.MEASURED_LOAD)
 
     @classmethod
@@ -117,6 +119,10 @@ class FindMaxLoad(ProgramSkill):
             self.feedback_message = f"scan at {positions[-1]:.3f} m, load {loads[-1]:.2f}"
             if slipped[0] >= self.p.slip_ticks:
                 return f"the element slipped in the grip at {positions[-1]:.3f} m along the plate"
+            felt = float(np.linalg.norm(self.read(keys.ROBOT_WRENCH)[:3]))
+            if 0.0 < self.p.max_scan_force < felt:
+                return (f"the arm felt {felt:.1f} N at {positions[-1]:.3f} m along the plate, over "
+                        f"max_scan_force {self.p.max_scan_force:g} N")
             return None
 
         # Twice the time the scan should take, and a margin for the controller to get going.

@@ -12,9 +12,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, Mapping
 
-import yaml
-
 from perception.errors import FvtreeError, did_you_mean
+from perception.yaml_source import SourceError, load_file
 
 PRESET_DIR = Path(__file__).with_name("presets")
 
@@ -267,11 +266,9 @@ def load_config(preset: str | Path = "fast", **overrides: Any) -> FingerVisionCo
         if not path.is_file():
             raise ConfigError(f"no perception preset {str(preset)!r}{_hint(str(preset), preset_names())}")
     try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except OSError as exc:
-        raise ConfigError(f"cannot read perception config {path}: {exc.strerror}") from None
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
+        data = load_file(path) or {}  # read with limits: size, aliases, depth, UTF-8, no NaN
+    except SourceError as exc:
+        raise ConfigError(f"perception config: {exc}") from None
     data.setdefault("name", path.stem)
     config = from_dict(data, source=str(path))
     if overrides:

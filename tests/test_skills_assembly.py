@@ -385,3 +385,23 @@ def test_a_heavy_plate_fails_naming_the_element_without_a_regrasp(tmp_path):
     assert h.feedback("main/assemble/elements/build/prop/find_load").startswith(
         "element E3: the element slipped in the grip")
     assert world.elements["E3"].state == "held" and "E3" not in world.truth()  # never placed
+
+
+def test_find_max_load_stops_the_scan_when_the_arm_feels_too_much_force(tmp_path):
+    """The arm's force readback guards the scan too: with a 5 N ceiling the first plate's load
+    stops it, and the element is not placed."""
+    from assembly.session import run_tree
+
+    trees = Path(__file__).resolve().parents[1] / "trees"
+    (tmp_path / "subtrees").mkdir()
+    (tmp_path / "design").mkdir()
+    for name in ("two_bays.json", "two_bays.scene.yaml"):
+        (tmp_path / "design" / name).write_text((trees / "design" / name).read_text())
+    subtree = (trees / "subtrees" / "prop_plate.yaml").read_text()
+    assert "name: find_load, params: {" in subtree
+    (tmp_path / "subtrees" / "prop_plate.yaml").write_text(
+        subtree.replace("name: find_load, params: {", "name: find_load, params: {max_scan_force: 5.0, "))
+    (tmp_path / "assembly.yaml").write_text((trees / "assembly.yaml").read_text())
+    summary = run_tree(str(tmp_path / "assembly.yaml"), runs_dir=tmp_path / "runs", plots=False, quiet=True)
+    assert summary["status"] == "FAILURE" and "over max_scan_force 5 N" in summary["message"]
+    assert summary["elements"]["E1"]["status"] == "planned"

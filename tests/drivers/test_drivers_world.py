@@ -12,7 +12,6 @@ import pytest
 
 from assembly.design import DesignModel
 from drivers.cell_builders import load_cell
-from drivers.cell_file import CellFileError
 from drivers.clock import SimClock
 from drivers.emulators.shadow import FollowedArm, FollowedGripper
 from drivers.protocols import SceneArm, SceneGripper, World
@@ -20,6 +19,7 @@ from drivers.sim.devices.arm import KinematicArm
 from drivers.sim.devices.gripper import SimGripper
 from drivers.sim.models.plate import BeamPlate
 from drivers.sim.scenes import SCENES
+from perception.errors import FvtreeError
 
 DESIGN_FILE = Path(__file__).resolve().parents[2] / "trees" / "design" / "two_bays.json"
 HOME = [0.0, 0.0, 0.5, np.pi, 0.0, 0.0]
@@ -96,11 +96,11 @@ def test_a_plate_left_out_of_the_scene_file_takes_the_defaults(tmp_path):
     ("plates:\n  P1:\n    w: heavy\n", "plates.P1.w", 3, "must be a number", None),
     ("plates:\n  P1: [1, 2]\n", "plates.P1", 2, "must be a mapping", None),
     ("plate:\n  P1: {}\n", "plate", 1, "unknown field", "plates"),
-    ("plates: [\n", None, None, "malformed YAML", None),
+    ("plates: [\n", None, 2, "malformed YAML", None),
 ])
 def test_a_malformed_scene_file_is_a_located_error(tmp_path, text, field, line, message, hint):
     args = _design_copy(tmp_path, text)
-    with pytest.raises(CellFileError) as err:
+    with pytest.raises(FvtreeError) as err:  # CellFileError, or the YAML reader's SourceError
         load_cell("sim", 30, "assembly", args)
     assert err.value.file == str(tmp_path / "bays.scene.yaml")
     assert (err.value.field, err.value.line) == (field, line) and message in err.value.message

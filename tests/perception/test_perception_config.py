@@ -31,7 +31,7 @@ def test_overrides_use_dotted_or_double_underscore_keys():
     ("proximity: {bins: [50, 10]}\n", "list of 3 numbers"),
     ("threshold: {mode: adaptive, block: 20}\n", "odd number"),
     ("tracker: [1, 2]\n", "expected a mapping"),
-    ("camera_fps: [\n", "not valid YAML"),
+    ("camera_fps: [\n", "malformed YAML"),
 ])
 def test_config_file_mistakes_are_named(tmp_path, text, message):
     path = tmp_path / "mine.yaml"

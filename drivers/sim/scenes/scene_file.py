@@ -14,11 +14,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import yaml
-
 from drivers.cell_file import CellFileError, check_known, section
 from drivers.sim.models.plate import BeamPlate
 from perception.errors import did_you_mean
+from perception.yaml_source import load_file
 
 LOAD_FIELDS = tuple(name for name in BeamPlate.__dataclass_fields__ if name != "span")
 POSITIVE = ("EI", "k")
@@ -35,10 +34,7 @@ def plate_loads(path: Path, spans: dict[str, float]) -> dict[str, dict[str, floa
     file, line and field of the first problem."""
     if not path.exists():
         return {}
-    try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as exc:
-        raise CellFileError(path, "", f"malformed YAML: {exc}") from None
+    data = load_file(path) or {}  # read with limits: a hostile file is a located SourceError
     if not isinstance(data, dict):
         raise CellFileError(path, "", "a scene file is a mapping with a 'plates' section")
     check_known(path, data, {"plates"})
