@@ -10,7 +10,7 @@ from py_trees.common import Status
 
 from behaviours import keys
 from behaviours.base import Param, ProgramSkill, time_limit
-from behaviours.control import LeakyIntegrator
+from behaviours.control import leaky_open
 from behaviours.geometry import translated
 from behaviours.registry import register
 
@@ -41,21 +41,11 @@ class PlaceElement(ProgramSkill):
         self.write(keys.ASBUILT, {**asbuilt, "status": "placing"})
         self.feedback_message = "announcing the release"
         yield  # the intent is on disk before the fingers open
-        start, t0 = self.gripper_width(), self.now()
-        target = min(start + self.p.opening, gripper.max_width)
-        drive = LeakyIntegrator(self.p.alpha)
+        target = min(self.gripper_width() + self.p.opening, gripper.max_width)
         self.feedback_message = "releasing"
-        while self.gripper_width() < target - 1e-4:
-            if self.now() - t0 > self.p.max_time:
-                gripper.stop()
-                return self.fail(f"the fingers opened to {self.gripper_width() * 1000:.1f} mm of "
-                                 f"{target * 1000:.1f} mm within {self.p.max_time:.0f} s")
-            x = drive.step(-1.0)  # 0 -> 1 with inertia
-            gripper.move(start + x * (target - start), speed=0.05)
-            yield
-            fault = self.gripper_fault()
-            if fault:
-                return self.fail(f"gripper fault: {fault}")
+        fault = yield from leaky_open(self, target, self.p.alpha, self.p.max_time)
+        if fault:
+            return self.fail(fault)
         left, right = self.tactile()
         if not (left.obj.present or right.obj.present):
             return self.fail(f"element {element['id']} not seen between the fingers after release: "
