@@ -29,6 +29,7 @@ class PeakEstimate:
 
 def moving_average(y: np.ndarray, n: int) -> np.ndarray:
     """Centred mean over `n` samples, shrinking the window at the ends (no edge bias to 0)."""
+    n = min(n, len(y))  # np.convolve(mode="same") returns the longer of the two: keep y's length
     if n <= 1:
         return y.astype(float)
     kernel = np.ones(n)

@@ -405,3 +405,11 @@ def test_find_max_load_stops_the_scan_when_the_arm_feels_too_much_force(tmp_path
     summary = run_tree(str(tmp_path / "assembly.yaml"), runs_dir=tmp_path / "runs", plots=False, quiet=True)
     assert summary["status"] == "FAILURE" and "over max_scan_force 5 N" in summary["message"]
     assert summary["elements"]["E1"]["status"] == "planned"
+
+
+def test_a_scan_shorter_than_the_smoothing_window_still_gives_a_peak():
+    from behaviours.load_search import locate_peak
+
+    x = np.linspace(0.0, 0.02, 23)  # 23 samples over 2 cm, smoothing over 3 cm
+    peak = locate_peak(x, 1.0 - (x - 0.01) ** 2, smooth_window=0.03, fit_half_width=0.08)
+    assert peak.smoothed.shape == x.shape and 0.0 <= peak.position <= 0.02
