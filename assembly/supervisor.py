@@ -9,9 +9,10 @@ perception older than `perception_stale_after` (`TactileState.stamp` against the
 and unhealthy perception (`TactileState.healthy`).
 
 Unhealthy perception is configurable per cell (`unhealthy_perception` in the cell file's
-`supervision:` section): `stop` (default) stops the cell whatever runs; `fail` lets a run go
-on while only skills that do not read the fingertips run (e.g. a plain move home), and stops it
-as soon as one that reads /fv/left or /fv/right (declared in its READS) is running.
+`supervision:` section): `stop` (default) stops the cell whatever runs; `fail` leaves it to the
+skills: a skill that reads /fv/left or /fv/right (declared in its READS) stops arm and gripper
+and fails with the reason (`ProgramSkill.update`), so the tree may go on (a fallback, a move
+home), while skills that need no touch run on.
 """
 
 from __future__ import annotations
@@ -23,7 +24,6 @@ from pathlib import Path
 import numpy as np
 import py_trees
 from py_trees.blackboard import Blackboard
-from py_trees.common import Status
 
 from assembly.loader import BuiltTree
 from assembly.stop_policy import Stop
@@ -127,13 +127,9 @@ class Supervisor:
             if not age <= self.settings.perception_stale_after:
                 return (f"perception on {key} is {age:.3f} s old "
                         f"(limit {self.settings.perception_stale_after} s)")
-        for key in TACTILE_KEYS:
-            state = storage[key]
-            if not state.healthy and (self.settings.unhealthy_perception == "stop" or self._touch_needed()):
-                return f"perception on {key} is unhealthy: {state.health_reason or 'no reason given'}"
+        if self.settings.unhealthy_perception == "stop":
+            for key in TACTILE_KEYS:
+                state = storage[key]
+                if not state.healthy:
+                    return f"perception on {key} is unhealthy: {state.health_reason or 'no reason given'}"
         return None
-
-    def _touch_needed(self) -> bool:
-        """A running node reads the fingertips."""
-        return any(node.status == Status.RUNNING and set(getattr(node, "READS", ())) & set(TACTILE_KEYS)
-                   for node in self.tree.nodes.values())

@@ -42,6 +42,7 @@ from py_trees.common import Access, Status
 from behaviours import keys
 
 REQUIRED = object()  # sentinel: the parameter has no default
+_TOUCH_KEYS = (keys.FV_LEFT, keys.FV_RIGHT)
 
 _TYPES = {"float": (int, float), "int": (int,), "bool": (bool,), "str": (str,)}
 
@@ -255,11 +256,24 @@ class ProgramSkill(Skill):
         yield
 
     def update(self) -> Status:
+        unhealthy = self._unhealthy_touch()
+        if unhealthy:  # reached only where the cell lets skills fail (supervision: fail)
+            self.cell.arm.stop()
+            self.cell.gripper.stop()
+            return self.fail(unhealthy)
         try:
             next(self._program)
         except StopIteration as done:
             return done.value if done.value is not None else Status.SUCCESS
         return Status.RUNNING
+
+    def _unhealthy_touch(self) -> str | None:
+        """Why this tick's fingertip states cannot be trusted, for a skill that reads them."""
+        for key in (k for k in _TOUCH_KEYS if k in self.READS):
+            state = self.read(key)
+            if state is not None and not state.healthy:
+                return f"perception on {key} is unhealthy: {state.health_reason or 'no reason given'}"
+        return None
 
     def terminate(self, new_status: Status) -> None:
         program = getattr(self, "_program", None)

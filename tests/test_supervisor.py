@@ -154,11 +154,14 @@ def test_unhealthy_perception_stops_the_cell_by_default():
     assert result.status == "FAULT" and "/fv/left is unhealthy" in result.message and result.where == "main/go"
 
 
-def test_unhealthy_perception_with_fail_stops_only_a_skill_that_needs_touch():
+def test_unhealthy_perception_with_fail_fails_only_a_skill_that_needs_touch():
     runner = moves_runner(Supervision(unhealthy_perception="fail"), healthy=lambda tick: tick < 5)
     result = runner.run()
-    assert result.status == "FAULT" and result.where == "main/feel"  # `go` moved on without touch
+    # `go` moved on without touch; `feel` stopped the arm and failed, the cell is not latched
+    assert result.status == "FAILURE" and result.where == "main/feel"
+    assert "perception on /fv/left is unhealthy" in result.message
     assert runner.cell.arm.pose()[0] == pytest.approx(0.3, abs=1e-6)
+    assert not runner.cell.arm.is_moving() and runner.cell.arm.fault() is None
 
 
 def test_a_fault_through_the_cli_exits_3_and_is_in_the_log_and_the_summary(tmp_path, capsys, monkeypatch):
