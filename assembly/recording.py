@@ -39,7 +39,7 @@ def record_run(tree_path: str | Path, cell: str = "sim", seed: int = 0, max_time
         states = the_cell.sense()
         rows.append(tick_features(states["left"], states["right"]))
         stamps.append(the_cell.clock.now())
-        labels.append(world.labels() if hasattr(world, "labels") else {})
+        labels.append(world.labels())
         return states
 
     runner = Runner(build(doc), the_cell, sense=sense, max_time=max_time)
@@ -55,7 +55,7 @@ def record_run(tree_path: str | Path, cell: str = "sim", seed: int = 0, max_time
     names = sorted(set().union(*labels)) if labels else []
     header = {"source": {"tree": str(tree_path), "cell": cell, "scene": doc.scene, "seeds": [seed]},
               "feature_spec": feature_spec(), "columns": columns(),
-              "label_info": world.label_info() if hasattr(world, "label_info") else {}}
+              "label_info": world.label_info()}
     return Recording(header, np.array(stamps), np.zeros(len(rows), np.int32), np.array(segments, np.int32),
                      np.array(rows), {n: np.array([row.get(n) for row in labels]) for n in names})
 

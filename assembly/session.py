@@ -180,7 +180,4 @@ def _sigterm_halts() -> Iterator[None]:
 def _stand_placed(world, design: DesignModel, placed: list[str]) -> None:
     """On resume in simulation, put already-placed elements where the as-built model says."""
     for eid in placed:
-        if eid in world.elements:
-            e = world.elements[eid]
-            e.pose = np.array(design.graph.nodes[eid]["asbuilt_pose"], float)
-            e.state = "standing"
+        world.stand(eid, np.array(design.graph.nodes[eid]["asbuilt_pose"], float))

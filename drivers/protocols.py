@@ -145,3 +145,12 @@ class World(Protocol):
     def truth(self) -> dict[str, dict]:
         """Ground truth per task object (e.g. per placed element: position against the true
         best one, load, regret) for the run report; empty where the scene has none."""
+
+    def labels(self) -> dict[str, Any]:
+        """This tick's training labels for `fvtree record` (e.g. what a scale reads)."""
+
+    def label_info(self) -> dict[str, dict]:
+        """What each label is (e.g. the scale's noise), stored with a recording."""
+
+    def stand(self, element_id: str, pose) -> None:
+        """Stand an element already placed, where the as-built model says (a resumed run)."""

@@ -323,6 +323,13 @@ class AssemblyScene(Scene):
         """The collisions between elements, when there were any."""
         return {"collisions": "; ".join(self.collisions)} if self.collisions else {}
 
+    def stand(self, element_id: str, pose) -> None:
+        """Stand an element the as-built model records as placed, at its as-built pose."""
+        if element_id in self.elements:
+            e = self.elements[element_id]
+            e.pose = np.array(pose, float)
+            e.state = "standing"
+
     def truth(self) -> dict[str, dict]:
         """Per element standing under a plate: where it props the plate against the true
         maximum-load position, the load it carries against that maximum, the force regret

@@ -17,3 +17,15 @@ class Scene:
     def truth(self) -> dict[str, dict]:
         """Ground truth per task object for the run report; none by default."""
         return {}
+
+    def labels(self) -> dict[str, Any]:
+        """This tick's training labels for `fvtree record` (e.g. a scale reading); none by default."""
+        return {}
+
+    def label_info(self) -> dict[str, dict]:
+        """What each label is (e.g. the scale's noise), stored with a recording; none by default."""
+        return {}
+
+    def stand(self, element_id: str, pose) -> None:
+        """Stand an element the as-built model records as placed (a resumed run); scenes without
+        elements have nothing to stand."""
