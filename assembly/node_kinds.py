@@ -275,6 +275,11 @@ def _memory_label(spec: NodeSpec) -> str:
     return f"[{spec.kind}, memory={str(spec.args['memory']).lower()}]"
 
 
+def _required_reads(cls) -> tuple[str, ...]:
+    """The keys a skill reads that something must write before it (not those read with a fallback)."""
+    return tuple(k for k in cls.READS if k not in cls.OPTIONAL_READS)
+
+
 def _composite_kind(cls: type, until: str) -> NodeKind:
     """The node kind of a sequence or a selector (`cls`), whose memory is always explicit."""
     return NodeKind(
@@ -338,7 +343,7 @@ NODE_KINDS: dict[str, NodeKind] = {
         doc="a tactile skill; its params are checked against the skill's declaration",
         fields={"name": STRING, "params": {"type": "object"}}, required=frozenset(), check=_skill,
         label=_label_skill, value="TYPE", substitutes=frozenset({"params"}), variants=_skill_variants,
-        keys=lambda spec: (SKILLS[spec.type].READS, SKILLS[spec.type].WRITES),
+        keys=lambda spec: (_required_reads(SKILLS[spec.type]), SKILLS[spec.type].WRITES),
         build=lambda spec, kids: SKILLS[spec.type](spec.name, resolved=spec.args["params"])),
     "subtree": NodeKind(
         doc="an instance of a subtree; `$param` strings in its body take the given values",

@@ -31,6 +31,7 @@ class ApproachPlate(ProgramSkill):
         "speed": Param("float", "travel speed", 0.15, "m/s", min=0.001),
     }
     READS = (keys.ELEMENT, keys.PLATES, keys.ELEMENT_LENGTH, keys.ROBOT_POSE, keys.ROBOT_FAULT, keys.ROBOT_MOVING)
+    OPTIONAL_READS = (keys.ELEMENT_LENGTH,)  # measured by vis_scan; else the design length
 
     def program(self):
         element = self.read(keys.ELEMENT)

@@ -120,6 +120,7 @@ class Skill(py_trees.behaviour.Behaviour):
     SUMMARY: ClassVar[str] = ""
     PARAMS: ClassVar[dict[str, Param]] = {}
     READS: ClassVar[tuple[str, ...]] = ()
+    OPTIONAL_READS: ClassVar[tuple[str, ...]] = ()  # keys of READS read with a fallback: no writer needed
     WRITES: ClassVar[tuple[str, ...]] = ()
     RUNS_UNTIL_HALTED: ClassVar[bool] = False  # True: never ends by itself, its parent halts it
 
