@@ -15,6 +15,7 @@ import numpy as np
 
 from drivers.protocols import SceneArm, SceneGripper
 from drivers.sim.models.fingervision_model import FingerContact
+from drivers.sim.scenes.base import Scene
 from drivers.sim.transforms import rotvec_to_matrix
 from perception.state import ObjectInfo
 
@@ -100,3 +101,17 @@ class Grip:
     def offset(self, load) -> np.ndarray:
         """Object position relative to where it was grasped: slid plus elastic gel shear (m)."""
         return self.slid + np.asarray(load, float) / self.shear_stiffness
+
+
+class PickedScene(Scene):
+    """A scene whose object (`width` wide, lying at `_start`) counts only once the hand has
+    squeezed it and carried it away: the press and stir sticks."""
+
+    def carry(self, dt: float) -> float | None:
+        """Step arm and gripper around the object; its squeeze once picked up, None before."""
+        self._dt = dt
+        squeeze = step_hand(self.arm, self.gripper, self.width, dt)
+        if not self.held:
+            self.held = picked_up(self.arm, self._start, squeeze)
+            return None
+        return squeeze

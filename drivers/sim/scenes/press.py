@@ -17,8 +17,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drivers.protocols import SceneArm, SceneGripper
-from drivers.sim.scenes.base import Scene
-from drivers.sim.scenes.grip import Grip, pad_contacts, pad_view, picked_up, slip_signal, step_hand, tool_rotation
+from drivers.sim.scenes.grip import (
+    Grip,
+    PickedScene,
+    pad_contacts,
+    pad_view,
+    slip_signal,
+    tool_rotation,
+)
 
 GRAVITY = 9.81
 
@@ -33,7 +39,7 @@ def mindlin_shear(load: float, capacity: float) -> float:
 
 
 @dataclass
-class PressScene(Scene):
+class PressScene(PickedScene):
     arm: SceneArm
     gripper: SceneGripper
     mass: float = 0.05  # kg
@@ -62,10 +68,8 @@ class PressScene(Scene):
         return self.arm.pose()[:3] + tool_rotation(self.arm)[:, 2] * (self.length + self.grip.slid[1])
 
     def step(self, dt: float) -> None:
-        self._dt = dt
-        squeeze = step_hand(self.arm, self.gripper, self.width, dt)
-        if not self.held:
-            self.held = picked_up(self.arm, self._start, squeeze)
+        squeeze = self.carry(dt)
+        if squeeze is None:
             return
         if self.released or squeeze <= 0.0:
             self.released = True

@@ -15,8 +15,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drivers.protocols import SceneArm, SceneGripper
-from drivers.sim.scenes.base import Scene
-from drivers.sim.scenes.grip import pad_contacts, pad_view, picked_up, slip_signal, step_hand, tool_rotation
+from drivers.sim.scenes.grip import (
+    PickedScene,
+    pad_contacts,
+    pad_view,
+    slip_signal,
+    tool_rotation,
+)
 
 
 @dataclass(frozen=True)
@@ -43,7 +48,7 @@ STIR_SPEED = 0.03  # m/s at which texture reaches its full strength
 
 
 @dataclass
-class StirScene(Scene):
+class StirScene(PickedScene):
     arm: SceneArm
     gripper: SceneGripper
     bowls: dict = field(default_factory=lambda: dict(BOWLS))
@@ -87,10 +92,8 @@ class StirScene(Scene):
         return self.arm.pose()[:3] + tool_rotation(self.arm)[:, 2] * self.length
 
     def step(self, dt: float) -> None:
-        self._dt = dt
-        squeeze = step_hand(self.arm, self.gripper, self.width, dt)
-        if not self.held:
-            self.held = picked_up(self.arm, self._start, squeeze)
+        squeeze = self.carry(dt)
+        if squeeze is None:
             return
         tip = self.tip()
         velocity = np.zeros(3) if self._last_tip is None else (tip - self._last_tip) / dt
