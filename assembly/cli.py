@@ -72,7 +72,7 @@ def _walk(spec):
         yield from _walk(child)
 
 
-RUN_EXIT = {"SUCCESS": 0, "FAULT": 3, "CRASHED": 4}  # any other result: EXIT_FAILURE
+RUN_EXIT = {"SUCCESS": 0, "FAULT": 3, "CRASHED": 4, "TASK_FAILED": 5}  # any other result: EXIT_FAILURE
 
 
 def cmd_run(args) -> int:
@@ -82,6 +82,7 @@ def cmd_run(args) -> int:
         args.tree, cell=args.cell, seed=args.seed, realtime=args.speed == "realtime",
         perception=args.perception, runs_dir=Path(args.runs_dir), resume=args.resume,
         estop_at=args.estop_at, max_time=args.max_time, plots=not args.no_plots, marks=dict(args.mark),
+        scene=args.scene,
     )
     if summary.get("nothing_to_do"):
         return 0
@@ -201,6 +202,8 @@ def parser() -> argparse.ArgumentParser:
                    help="simulated time: as fast as possible (max) or paced to the wall clock")
     r.add_argument("--perception", choices=("signals", "pixels"), default=None,
                    help="simulated FingerVision: from contact signals, or rendered frames through the pipeline")
+    r.add_argument("--scene", default=None, metavar="NAME",
+                   help="simulate this scene instead of the tree's `cell.scene` (see `fvtree scenes`)")
     r.add_argument("--runs-dir", default="runs", help="where run directories go (default: runs)")
     r.add_argument("--resume", nargs="?", const="latest", default=None, metavar="RUN_DIR",
                    help="continue a run, skipping elements already placed (default: the latest run)")

@@ -3,7 +3,7 @@ whole file before anything runs; build the py_trees tree with a stable path per 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import py_trees
@@ -17,7 +17,7 @@ from perception.errors import FvtreeError, did_you_mean
 from perception.yaml_source import Located, load_file, load_text
 
 TOP_FIELDS = {"version", "name", "doc", "cell", "design", "include", "subtrees", "root"}
-CELL_FIELDS = {"tick_hz": (int, float), "scene": (str,)}
+CELL_FIELDS = {"tick_hz": (int, float), "scene": (str,), "tolerances": (dict,)}
 SUPPORTED_VERSIONS = (1,)
 SUBTREE_FIELDS = ("params", "root", "doc")
 
@@ -33,6 +33,7 @@ class TreeDocument:
     design: DesignModel | None
     root: NodeSpec
     subtrees: dict[str, SubtreeDef] = field(default_factory=dict)
+    tolerances: Located = field(default_factory=Located)  # name -> limit of the simulated verdict
 
 
 def _scenes() -> dict:
@@ -124,11 +125,24 @@ def _cell_settings(doc: Located, file: str, errors: list[TreeError]) -> tuple[fl
     if isinstance(scene, str) and scene not in _scenes():
         errors.append(TreeError(f"no simulated scene {scene!r}", file, cell.line_of("scene"), "cell.scene",
                                 did_you_mean(scene, _scenes()) or f"known: {', '.join(sorted(_scenes()))}"))
+    tolerances = cell.get("tolerances")
+    for name, value in tolerances.items() if isinstance(tolerances, dict) else ():
+        if not isinstance(value, (int, float)) or isinstance(value, bool) or value < 0:
+            errors.append(TreeError(f"cell.tolerances.{name} must be a number >= 0, got {value!r}", file,
+                                    tolerances.line_of(name)))
     tick_hz = cell.get("tick_hz", 30)
     if isinstance(tick_hz, (int, float)) and not 0 < tick_hz <= 1000:
         errors.append(TreeError(f"cell.tick_hz must be in (0, 1000], got {tick_hz}", file,
                                 cell.line_of("tick_hz")))
     return tick_hz, scene
+
+
+def with_scene(doc: TreeDocument, scene: str) -> TreeDocument:
+    """The tree with another simulated scene (`fvtree run --scene`), which must exist."""
+    if scene not in _scenes():
+        raise TreeError(f"--scene {scene}: no simulated scene {scene!r}", doc.path,
+                        hint=did_you_mean(scene, _scenes()) or f"known: {', '.join(sorted(_scenes()))}")
+    return replace(doc, scene=scene)
 
 
 def _design(doc: Located, file: str, errors: list[TreeError]) -> DesignModel | None:
@@ -173,7 +187,8 @@ def load_tree(path: str | Path | None = None, text: str | None = None, name: str
             errors.extend(dataflow_errors(root, NODE_KINDS, PERCEPTION_KEYS))
     if errors:
         raise TreeErrors(errors)
-    return TreeDocument(file, str(doc["name"]), float(tick_hz), scene, design, root, subtrees)
+    tolerances = (doc.get("cell") or {}).get("tolerances") or Located()
+    return TreeDocument(file, str(doc["name"]), float(tick_hz), scene, design, root, subtrees, tolerances)
 
 
 # ---- building ---------------------------------------------------------------------------------

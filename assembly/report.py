@@ -50,8 +50,10 @@ def summarize(result: RunResult, cell: Cell, design: DesignModel | None,
 
 def format_summary(summary: dict) -> str:
     lines = [f"{summary['status']}" + (f": {summary['message']}" if summary["message"] else "")]
-    if summary["status"] != "SUCCESS" and summary["where"]:
+    if summary["status"] not in ("SUCCESS", "TASK_FAILED") and summary["where"]:
         lines.append(f"  stopped at: {summary['where']}")
+    truth = summary.get("truth", {})
+    lines += [f"  not done: {shortfall}" for shortfall in truth.get("shortfalls", [])]
     placed = [e for e in summary["elements"].values() if e["status"] == "placed"]
     if summary["elements"]:
         lines.append(f"  elements placed: {len(placed)} of {len(summary['elements'])}")
@@ -68,6 +70,8 @@ def format_summary(summary: dict) -> str:
             lines.append(f"  {eid}: being released when the run stopped: check it before resuming")
     for name, value in summary.get("metrics", {}).items():
         lines.append(f"  {name}: {value:.4g}" if isinstance(value, float) else f"  {name}: {value}")
+    if truth.get("tolerances"):
+        lines.append("  judged by the scene's truth with " + ", ".join(f"{k} {v:g}" for k, v in truth["tolerances"].items()))
     lines.append(f"  sim time {summary['sim_time_s']:.1f} s, wall time {summary['wall_time_s']:.2f} s, "
                  f"real-time factor {summary['real_time_factor']:.0f}x, {summary['ticks']} ticks")
     return "\n".join(lines)

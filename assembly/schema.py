@@ -64,7 +64,10 @@ def tree_schema() -> dict:
             "version": {"const": 1}, "name": {"type": "string"}, "doc": {"type": "string"},
             "cell": {"type": "object", "additionalProperties": False,
                      "properties": {"tick_hz": {"type": "number", "exclusiveMinimum": 0, "maximum": 1000},
-                                    "scene": {"type": "string"}}},
+                                    "scene": {"type": "string"},
+                                    "tolerances": {"type": "object", "description": "limits of the simulated "
+                                                   "run's verdict from the scene's truth (`fvtree scenes`)",
+                                                   "additionalProperties": {"type": "number", "minimum": 0}}}},
             "design": {"type": "string"}, "include": {"type": "array", "items": {"type": "string"}},
             "subtrees": {"type": "object", "additionalProperties": {
                 "type": "object", "required": ["root"], "additionalProperties": False,

@@ -19,13 +19,14 @@ import numpy as np
 from assembly.blackboard import clear_blackboard
 from assembly.design import DesignBridge, DesignModel
 from assembly.errors import TreeError
-from assembly.loader import TreeDocument, build, load_tree
+from assembly.loader import TreeDocument, build, load_tree, with_scene
 from assembly.progress import end_stderr_progress, stderr_progress
 from assembly.report import format_summary, plot_profiles, summarize, write_summary
 from assembly.run_dir import ASBUILT_FILE, SUMMARY_FILE, find_run, new_run_dir, write_run_file
 from assembly.runner import Runner
 from assembly.stop_policy import Terminated
 from assembly.supervisor import Supervision
+from assembly.verdict import judge, tolerances_for
 from drivers.cell_builders import load_cell
 
 MARKS = ("placed", "planned")  # what a person may mark an element left `placing`
@@ -34,12 +35,14 @@ MARKS = ("placed", "planned")  # what a person may mark an element left `placing
 def run_tree(tree_path: str, cell: str = "sim", seed: int = 0, realtime: bool = False,
              perception: str | None = None, runs_dir: Path = Path("runs"), resume: str | None = None,
              estop_at: float | None = None, max_time: float = 3600.0, plots: bool = True,
-             quiet: bool = False, marks: dict[str, str] | None = None) -> dict:
+             quiet: bool = False, marks: dict[str, str] | None = None, scene: str | None = None) -> dict:
     """Run a tree file end to end; returns the summary (also written to the run directory).
 
     `marks` ({element: placed|planned}, resuming only) records a person's check of elements a
-    stopped run left being placed."""
+    stopped run left being placed; `scene` replaces the tree's simulated scene."""
     doc = load_tree(tree_path)
+    if scene is not None:
+        doc = with_scene(doc, scene)
     supervision = Supervision.of_cell(cell)
     clear_blackboard()
     before: dict = {}
@@ -62,6 +65,7 @@ def run_tree(tree_path: str, cell: str = "sim", seed: int = 0, realtime: bool = 
     scene_args = doc.design.scene_args() if doc.design is not None else {}
     the_cell = load_cell(cell, doc.tick_hz, doc.scene, scene_args, seed=seed, perception=perception)
     try:
+        tolerances = tolerances_for(doc, the_cell.world) if the_cell.world is not None else {}
         if placed_before and the_cell.world is not None:
             _stand_placed(the_cell.world, design, placed_before)
         runner = Runner(build(doc), the_cell, run_dir, bridge, realtime=realtime,
@@ -79,9 +83,11 @@ def run_tree(tree_path: str, cell: str = "sim", seed: int = 0, realtime: bool = 
     summary = summarize(result, the_cell, design, {e: before["elements"][e] for e in placed_before
                                                    if e in before.get("elements", {})})
     summary["run_dir"] = str(run_dir)
+    if the_cell.world is not None:
+        judge(summary, the_cell.world, tolerances)
     _finish(summary, result, the_cell, run_dir, plots)
     if bridge:
-        bridge.event("end", status=result.status, where=result.where, message=result.message)
+        bridge.event("end", status=summary["status"], where=result.where, message=summary["message"])
     if not quiet:
         print(format_summary(summary))
         print(f"  run directory: {run_dir}" + (f" (chart: {summary.get('plot')})" if summary.get("plot") else ""))

@@ -9,7 +9,8 @@ asynchronous: they start a motion and return, and the caller polls state every t
 
 from __future__ import annotations
 
-from typing import Any, Mapping, Protocol, runtime_checkable
+from collections.abc import Mapping
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -145,6 +146,12 @@ class World(Protocol):
     def truth(self) -> dict[str, dict]:
         """Ground truth per task object (e.g. per placed element: position against the true
         best one, load, regret) for the run report; empty where the scene has none."""
+
+    TOLERANCES: Mapping[str, float]  # the tolerances `shortfalls` knows, with their defaults
+
+    def shortfalls(self, tolerances: Mapping[str, float]) -> list[str]:
+        """From the truth, each way the task was not done (an object dropped, an element placed
+        with more regret than `tolerances` allows ...), in words for the run summary."""
 
     def labels(self) -> dict[str, Any]:
         """This tick's training labels for `fvtree record` (e.g. what a scale reads)."""

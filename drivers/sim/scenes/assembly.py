@@ -14,8 +14,10 @@ a second one while they hold the first.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 
@@ -322,6 +324,20 @@ class AssemblyScene(Scene):
     def metrics(self) -> dict:
         """The collisions between elements, when there were any."""
         return {"collisions": "; ".join(self.collisions)} if self.collisions else {}
+
+    TOLERANCES: ClassVar[dict[str, float]] = {"max_regret": 0.01}  # the force regret (R* - R) / R* a placed element may have
+
+    def shortfalls(self, tolerances: Mapping[str, float]) -> list[str]:
+        """Elements that fell when released, stand without propping a plate, or prop one with
+        more regret than `max_regret`."""
+        truth = self.truth()
+        out = [f"{e.id} fell when it was released" for e in self.elements.values() if e.state == "dropped"]
+        out += [f"{e.id} stands but props no plate" for e in self.elements.values()
+                if e.state == "standing" and e.id not in truth]
+        out += [f"{eid} props {t['plate']} {1000 * (t['position'] - t['true_best_position']):+.0f} mm from the "
+                f"true maximum, regret {t['regret'] * 100:.3g} % > {tolerances['max_regret'] * 100:g} %"
+                for eid, t in truth.items() if t["regret"] > tolerances["max_regret"]]
+        return out
 
     def stand(self, element_id: str, pose) -> None:
         """Stand an element the as-built model records as placed, at its as-built pose."""

@@ -3,12 +3,19 @@ have no measures or ground truth beyond what they override."""
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Mapping
+from typing import Any, ClassVar
 
 
 class Scene:
     """Base of the simulated scenes: empty `metrics` and `truth`; subclasses add `step` and
     `contacts` (and override the others where they know more)."""
+
+    TOLERANCES: ClassVar[dict[str, float]] = {}  # name -> default limit, for `shortfalls`
+
+    def shortfalls(self, tolerances: Mapping[str, float]) -> list[str]:
+        """What the scene's truth shows was not done (an object dropped, ...); nothing by default."""
+        return []
 
     def metrics(self) -> dict[str, Any]:
         """Scene measures of how the task went; none by default."""

@@ -11,7 +11,9 @@ normal load as a Hertz contact's does (load^(2/3)).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
@@ -137,6 +139,15 @@ class FollowMeScene(Scene):
         """Before the grasp: the block is seen between the open fingers, nothing touches."""
         views = (pad_view(-1.0, self.area, (0.0, 0.0)), pad_view(1.0, self.area, (0.0, 0.0)))
         return pad_contacts((0.0, 0.0), np.zeros(3), 0.0, views)
+
+    TOLERANCES: ClassVar[dict[str, float]] = {"max_final_error_mm": 20.0}  # how far from the person's hand the tool may end
+
+    def shortfalls(self, tolerances: Mapping[str, float]) -> list[str]:
+        if self.lost:
+            return ["the block was lost"]
+        final = self._errors[-1] * 1000 if self._errors else 0.0
+        limit = tolerances["max_final_error_mm"]
+        return [f"the tool ended {final:.1f} mm from the block's goal > {limit:g} mm"] if final > limit else []
 
     def metrics(self) -> dict:
         if not self._errors:

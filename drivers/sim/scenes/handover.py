@@ -7,6 +7,7 @@ bottle, the person takes it away. If the grip cannot carry it, the bottle slides
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -91,6 +92,9 @@ class HandoverScene(Scene):
                     "right": FingerContact(squeeze + self.push, np.array([drag, 0.0]), 0.0, None, views[1], slip)}
         slip = slip_signal(self.grip.speed, self.area, dt)
         return pad_contacts((squeeze, squeeze), self._load, 0.0, views, slip)
+
+    def shortfalls(self, tolerances: Mapping[str, float]) -> list[str]:
+        return ["the bottle was dropped"] if self.phase == "dropped" else []
 
     def metrics(self) -> dict:
         return {"bottle": {"approach": "not yet offered", "offer": "still offered by the person",

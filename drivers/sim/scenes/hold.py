@@ -4,6 +4,7 @@ so the grip that held the empty box starts to slip unless it is tightened."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -64,6 +65,9 @@ class HoldScene(Scene):
         view = {s: pad_view(s, 0.3, offset) for s in (-1.0, 1.0)}
         slip = slip_signal(self.grip.speed, 0.3, self._dt)
         return pad_contacts((squeeze, squeeze), self._load, 0.0, (view[-1.0], view[1.0]), slip)
+
+    def shortfalls(self, tolerances: Mapping[str, float]) -> list[str]:
+        return ["the box was dropped"] if self.dropped else []
 
     def metrics(self) -> dict:
         return {"box slid (mm)": round(float(np.hypot(*self.grip.slid)) * 1000, 2),

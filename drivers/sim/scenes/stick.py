@@ -12,8 +12,8 @@ orientation in the image, and slip while it turns.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -95,6 +95,9 @@ class StickScene(Scene):
         load = tool_rotation(self.arm).T @ np.array([0.0, 0.0, -self.mass * GRAVITY])
         slip = slip_signal(self._rate * self.view_half, self.area, self._dt)
         return pad_contacts((squeeze, squeeze), load, self.gravity_torque(), views, slip)
+
+    def shortfalls(self, tolerances: Mapping[str, float]) -> list[str]:
+        return ["the stick was dropped"] if self.dropped else []
 
     def metrics(self) -> dict:
         hanging = math.degrees(math.acos(np.clip(-self.direction()[2], -1.0, 1.0)))
