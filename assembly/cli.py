@@ -149,14 +149,17 @@ def cmd_check(args) -> int:
 def cmd_record(args) -> int:
     from assembly.recording import record
 
-    print(f"wrote {record(args.tree, args.out, cell=args.cell, seed=args.seed, runs=args.runs)}")
+    print(f"wrote {record(args.tree, args.out, cell=args.cell, seed=args.seed, runs=args.runs, perception=args.perception)}")
     return 0
 
 
 def cmd_train(args) -> int:
     from perception.learning.train import run
 
-    for path in run(args.kind, args.data, args.out, seed=args.seed):
+    if args.test and args.kind != "stir":
+        raise FvtreeError("--test (a recording of another session) is for StirLearn (`fvtree train stir`)",
+                          args.test)
+    for path in run(args.kind, args.data, args.out, seed=args.seed, test=args.test):
         print(f"wrote {path}")
     return 0
 
@@ -254,13 +257,18 @@ def parser() -> argparse.ArgumentParser:
     rec.add_argument("--seed", type=SEED, default=0, help="seed of the first run")
     rec.add_argument("--runs", type=POSITIVE_INT, default=1,
                      help="record this many runs (seeds seed, seed+1, ...)")
+    rec.add_argument("--perception", choices=("signals", "pixels"), default=None,
+                     help="simulated FingerVision: from contact signals, or rendered frames through the pipeline")
     rec.set_defaults(func=cmd_record)
 
     tr = sub.add_parser("train", help="train ForceLearn (force) or StirLearn (stir) on a recording")
     tr.add_argument("kind", choices=("force", "stir"))
-    tr.add_argument("data", type=_existing_file, help="recording made by fvtree record")
+    tr.add_argument("data", type=_existing_file, nargs="+", help="recordings made by fvtree record (joined)")
     tr.add_argument("--out", required=True, help="model file to write (.npz)")
     tr.add_argument("--seed", type=SEED, default=0)
+    tr.add_argument("--test", type=_existing_file, default=None, metavar="RECORDING",
+                    help="stir: test on every trial of this recording of another session (fvtree record "
+                         "--seed N) instead of holding out trials of DATA")
     tr.set_defaults(func=cmd_train)
     return p
 

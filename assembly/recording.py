@@ -19,12 +19,14 @@ from perception.learning.dataset import Recording
 from perception.learning.features import columns, feature_spec, tick_features
 
 
-def record_run(tree_path: str | Path, cell: str = "sim", seed: int = 0, max_time: float = 3600.0) -> Recording:
-    """Run the tree once and return its per-tick recording; RuntimeError if the run fails."""
+def record_run(tree_path: str | Path, cell: str = "sim", seed: int = 0, max_time: float = 3600.0,
+               perception: str | None = None) -> Recording:
+    """Run the tree once (simulated perception from contact `signals` or rendered `pixels`, or the
+    cell's own) and return its per-tick recording; RuntimeError if the run fails."""
     doc = load_tree(tree_path)
     clear_blackboard()
     scene_args = doc.design.scene_args() if doc.design is not None else {}
-    the_cell = load_cell(cell, doc.tick_hz, doc.scene, scene_args, seed=seed)
+    the_cell = load_cell(cell, doc.tick_hz, doc.scene, scene_args, seed=seed, perception=perception)
     world = the_cell.world
     rows, stamps, labels, segments = [], [], [], []
 
@@ -53,15 +55,17 @@ def record_run(tree_path: str | Path, cell: str = "sim", seed: int = 0, max_time
         raise RuntimeError(f"the recording run of {tree_path} (seed {seed}) ended {result.status} at "
                            f"{result.where}: {result.message}")
     names = sorted(set().union(*labels)) if labels else []
-    header = {"source": {"tree": str(tree_path), "cell": cell, "scene": doc.scene, "seeds": [seed]},
+    header = {"source": {"tree": str(tree_path), "cell": cell, "scene": doc.scene, "seeds": [seed],
+                         "perception": perception or "cell default"},
               "feature_spec": feature_spec(), "columns": columns(),
               "label_info": world.label_info()}
     return Recording(header, np.array(stamps), np.zeros(len(rows), np.int32), np.array(segments, np.int32),
                      np.array(rows), {n: np.array([row.get(n) for row in labels]) for n in names})
 
 
-def record(tree_path: str | Path, out: str | Path, cell: str = "sim", seed: int = 0, runs: int = 1) -> Path:
+def record(tree_path: str | Path, out: str | Path, cell: str = "sim", seed: int = 0, runs: int = 1,
+           perception: str | None = None) -> Path:
     """Record `runs` runs (seeds seed, seed+1, ...) of a tree into one file at `out`."""
-    parts = [record_run(tree_path, cell, seed + i) for i in range(runs)]
+    parts = [record_run(tree_path, cell, seed + i, perception=perception) for i in range(runs)]
     header = {**parts[0].header, "source": {**parts[0].header["source"], "seeds": list(range(seed, seed + runs))}}
     return Recording.concatenate(parts, header).save(out)

@@ -3,11 +3,17 @@ the paper's MLP and the alternatives; the paper's 72/48 split."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
+from assembly.cli import main
+from drivers.sim.scenes.stir import SUBSTANCES, session_batch
 from perception.learning.dataset import Recording
 from perception.learning.stir import PAPER_MODEL, split, train_stir, trials
+
+TREES = Path(__file__).resolve().parents[1] / "trees"
 
 
 @pytest.fixture(scope="module")
@@ -35,3 +41,36 @@ def test_the_paper_split_holds_out_48_of_120_trials_stratified():
     train, test = split(y)
     assert len(train) == 72 and len(test) == 48
     assert all((y[test] == s).sum() == 16 for s in ("flour", "sugar", "peas"))
+
+
+@pytest.fixture(scope="module")
+def another_session(tmp_path_factory) -> Recording:
+    """Eight trials per bowl recorded in session 1 (another batch of each substance, another skin)."""
+    from assembly.recording import record
+
+    tree = tmp_path_factory.mktemp("session1") / "record_stir.yaml"
+    tree.write_text((TREES / "record_stir.yaml").read_text().replace("times: 40", "times: 8"))
+    return Recording.load(record(tree, tree.with_suffix(".npz"), seed=1))
+
+
+def test_sessions_differ_in_their_substances_and_skin_and_repeat_with_their_seed():
+    assert session_batch(0) == session_batch(0)
+    (first, *skin0), (second, *skin1) = session_batch(0), session_batch(1)
+    assert skin0 != skin1 and all(first[s] != second[s] for s in SUBSTANCES)
+
+
+def test_a_model_is_tested_on_another_session_and_the_classifiers_differ(stirred, another_session):
+    model, report = train_stir(stirred, test_session=another_session)
+    assert report["tested_on"] == "another session"
+    assert report["train_trials"] == 48 and report["test_trials"] == 24
+    f1 = {name: result["f1"] for name, result in report["models"].items()}
+    assert len({round(v, 3) for v in f1.values()}) > 1, f1
+    assert all(0.0 <= v <= 1.0 for v in f1.values())
+
+
+def test_train_takes_another_sessions_recording_for_stirlearn_only(stirred, another_session, tmp_path, capsys):
+    data, other = stirred.save(tmp_path / "a.npz"), another_session.save(tmp_path / "b.npz")
+    assert main(["train", "stir", str(data), "--test", str(other), "--out", str(tmp_path / "m.npz")]) == 0
+    assert "48 training / 24 test trials, tested on another session" in capsys.readouterr().out
+    assert main(["train", "force", str(data), "--test", str(other), "--out", str(tmp_path / "f.npz")]) == 2
+    assert "--test (a recording of another session) is for StirLearn" in capsys.readouterr().err

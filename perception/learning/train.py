@@ -26,7 +26,8 @@ def format_force_report(report: dict) -> str:
 
 
 def format_stir_report(report: dict) -> str:
-    lines = [f"StirLearn: {report['train_trials']} training / {report['test_trials']} test trials"]
+    lines = [f"StirLearn: {report['train_trials']} training / {report['test_trials']} test trials, "
+             f"tested on {report['tested_on']}"]
     for name, result in report["models"].items():
         marker = " (saved)" if name == report["saved"] else ""
         lines.append(f"\n{name}{marker}: f1 {result['f1']:.3f}\n{result['table']}")
@@ -56,12 +57,19 @@ def plot_force(report: dict, path: Path) -> Path:
     return path
 
 
-def run(kind: str, data: str | Path, out: str | Path, seed: int = 0) -> list[Path]:
-    """Train a `kind` model on the recording `data`, save it at `out`; returns the files written."""
+def run(kind: str, data: list[str | Path], out: str | Path, seed: int = 0, test: str | Path | None = None) -> list[Path]:
+    """Train a `kind` model on the recordings `data` (joined; StirLearn: tested on the recording
+    `test` of another session when given), save it at `out`; returns the files written."""
     out = Path(out)
     if out.suffix != SUFFIX:
         raise ModelError(f"a model file is {SUFFIX} (plain arrays, no pickle), got {out.name}", str(out))
-    rec = Recording.load(data)
+    parts = [Recording.load(path) for path in data]
+    for path, part in zip(data, parts):
+        if part.header.get("columns") != parts[0].header.get("columns"):
+            raise ModelError(f"its feature columns differ from those of {data[0]}: record both with this version",
+                             str(path))
+    rec = parts[0] if len(parts) == 1 else Recording.concatenate(parts, {
+        **parts[0].header, "source": {"recordings": [p.header.get("source", {}) for p in parts]}})
     out.parent.mkdir(parents=True, exist_ok=True)
     if kind == "force":
         from perception.learning.force import train_force
@@ -72,7 +80,7 @@ def run(kind: str, data: str | Path, out: str | Path, seed: int = 0) -> list[Pat
     elif kind == "stir":
         from perception.learning.stir import plot_stir, train_stir
 
-        model, report = train_stir(rec, seed=seed)
+        model, report = train_stir(rec, seed=seed, test_session=Recording.load(test) if test else None)
         print(format_stir_report(report))
         chart = plot_stir(report, out.with_suffix(".png"))
     else:

@@ -5,12 +5,20 @@ feels drag: a viscous part (growing with speed) and a granular part (independent
 both growing with depth, plus texture: smooth and slow for flour, fine and fast for sugar,
 intermittent jams for peas. The fingers feel the drag as shear and, through the lever down to
 the substance, as a twist about the closing axis; past the grip's friction torque the stick
-turns in the fingers (slip, orientation). Each dip draws new packing and fill (+-20 %).
+turns in the fingers (slip, orientation).
+
+Trials overlap as real ones do. Each dip draws its own fill level and packing and its own grain
+(DIP_SPREAD). Each session (the run's seed) has its own batch of each substance (grain size and
+humidity: viscous, granular, texture and texture time drawn log-normally, BATCH_SIGMA) and its own
+skin (the gel's shear and twist stiffness drift by SKIN_DRIFT when a skin is remounted or warms
+up), so a model trained in one session is tested fairly only on another. The spreads are chosen
+so that held-out trials of one session score about as the paper's (f1 0.96-0.98) while another
+session costs every classifier 0.05-0.2 of f1, by different amounts (`fvtree bench skills`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -45,6 +53,21 @@ SUBSTANCES = {
 BOWLS = {"flour": (-0.15, 0.3), "sugar": (0.0, 0.3), "peas": (0.15, 0.3)}  # centre x, y (m)
 IMAGE_SIZE = (320, 240)  # px of the pad cameras
 STIR_SPEED = 0.03  # m/s at which texture reaches its full strength
+DIP_SPREAD = 0.4  # +- share by which a dip's packing and grain vary
+BATCH_SIGMA = 0.45  # log-normal sigma of a session's batch of each substance
+SKIN_DRIFT = 0.25  # +- share by which the gel's stiffness drifts between sessions
+
+
+def session_batch(seed: int) -> tuple[dict[str, Substance], float, float]:
+    """A session's substances and its skin's (shear, twist) stiffness factors, from its seed."""
+    rng = np.random.default_rng([seed, 1])
+    batch = {}
+    for name, s in SUBSTANCES.items():
+        viscous, granular, texture, texture_time = rng.lognormal(0.0, BATCH_SIGMA, 4)
+        batch[name] = replace(s, viscous=s.viscous * viscous, granular=s.granular * granular,
+                              texture=s.texture * texture, texture_time=s.texture_time * texture_time)
+    shear, twist = rng.uniform(1 - SKIN_DRIFT, 1 + SKIN_DRIFT, 2)
+    return batch, float(shear), float(twist)
 
 
 @dataclass
@@ -68,6 +91,9 @@ class StirScene(PickedScene):
     def __post_init__(self):
         self._dt = 0.0  # s, length of the last tick (slip is motion per camera frame)
         self._rng = np.random.default_rng(self.seed)
+        self.substances, shear, twist = session_batch(self.seed)
+        self.shear_stiffness *= shear
+        self.twist_stiffness *= twist
         self._start = self.arm.pose()[:3]
         self.held = False
         self.angle = 0.0  # rad the stick has turned in the fingers
@@ -101,10 +127,10 @@ class StirScene(PickedScene):
         bowl = self.bowl_under(tip)
         depth = max(0.0, self.surface_z - tip[2]) if bowl else 0.0
         if depth > 0.0 and self._depth == 0.0:  # a new dip: new packing and fill
-            self._factors = self._rng.uniform(0.8, 1.2, 2)
+            self._factors = self._rng.uniform(1 - DIP_SPREAD, 1 + DIP_SPREAD, 2)
             self.stirred.append(bowl)
         self._depth = depth
-        force = self._substance_force(SUBSTANCES[bowl], depth, velocity, dt) if depth else np.zeros(3)
+        force = self._substance_force(self.substances[bowl], depth, velocity, dt) if depth else np.zeros(3)
         rot = tool_rotation(self.arm)
         self._load = rot.T @ force
         lever = self.length - depth / 2.0  # drag acts halfway down the dipped part
