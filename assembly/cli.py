@@ -153,6 +153,14 @@ def cmd_record(args) -> int:
     return 0
 
 
+def cmd_import_log(args) -> int:
+    from perception.learning.blobmoves import import_logs
+
+    rec = import_logs(args.logs)
+    print(f"wrote {rec.save(args.out)} ({len(args.logs)} trials, {len(rec)} frames)")
+    return 0
+
+
 def cmd_train(args) -> int:
     from perception.learning.train import run
 
@@ -260,6 +268,12 @@ def parser() -> argparse.ArgumentParser:
     rec.add_argument("--perception", choices=("signals", "pixels"), default=None,
                      help="simulated FingerVision: from contact signals, or rendered frames through the pipeline")
     rec.set_defaults(func=cmd_record)
+
+    il = sub.add_parser("import-log", help="turn BlobMoves marker logs of other FingerVision software (one trial "
+                                           "per JSON or YAML file) into a recording for fvtree train")
+    il.add_argument("logs", nargs="+", type=_existing_file, metavar="LOG")
+    il.add_argument("--out", required=True, help="recording file to write (.npz)")
+    il.set_defaults(func=cmd_import_log)
 
     tr = sub.add_parser("train", help="train ForceLearn (force) or StirLearn (stir) on a recording")
     tr.add_argument("kind", choices=("force", "stir"))

@@ -28,6 +28,25 @@ def press_ids(rec: Recording, threshold: float = 0.5) -> np.ndarray:
     return np.maximum(np.cumsum(rising) - 1, 0)
 
 
+def trial_groups(rec: Recording) -> np.ndarray:
+    """The group of each tick that is held out whole: its trial for imported marker logs (each
+    log one segment), else its press."""
+    return rec.segment if rec.header.get("groups") == "segment" else press_ids(rec)
+
+
+def per_group(y: np.ndarray, predicted: np.ndarray, groups: np.ndarray) -> list[dict]:
+    """MSE and R2 of each held-out press or trial (R2 only where the load varies within it),
+    with its mean load: where a model is off, and for which loads."""
+    out = []
+    for g in np.unique(groups):
+        mine = groups == g
+        varies = np.ptp(y[mine]) > 1e-9
+        out.append({"group": int(g), "ticks": int(mine.sum()), "mean_load": float(y[mine].mean()),
+                    "mse": float(mean_squared_error(y[mine], predicted[mine])),
+                    "r2": float(r2_score(y[mine], predicted[mine])) if varies else None})
+    return out
+
+
 def split_presses(presses: np.ndarray, test_every: int = 4) -> tuple[np.ndarray, np.ndarray]:
     """Masks (train, test): every `test_every`-th press is held out for testing."""
     test = presses % test_every == test_every - 1
@@ -52,11 +71,12 @@ def train_force(rec: Recording, max_samples: int = 600, seed: int = 0) -> tuple[
     """Train on 3 of every 4 presses, test on the rest; returns the model and the report."""
     x = rec.features[:, marker_columns()]
     y = rec.label(LABEL).astype(float)
-    presses = press_ids(rec)
+    presses = trial_groups(rec)
     train, test = split_presses(presses)
     estimator, params = fit_force(x[train], y[train], presses[train], max_samples, seed)
     predicted = estimator.predict(x[test])
     report = {"presses": int(presses.max()) + 1, "train_ticks": int(train.sum()), "test_ticks": int(test.sum()),
+              "held_out_groups": per_group(y[test], predicted, presses[test]),
               "hyper_parameters": params,
               "mse": float(mean_squared_error(y[test], predicted)),
               "rmse": float(np.sqrt(mean_squared_error(y[test], predicted))),

@@ -22,6 +22,9 @@ def format_force_report(report: dict) -> str:
     if "rmse_vs_true_force" in report:
         lines.append(f"  RMSE against the true force {report['rmse_vs_true_force']:.3f} N"
                      + (f" (scale noise std {noise} N)" if noise is not None else ""))
+    lines.append("  per held-out press or trial:")
+    lines += [f"    {g['group']:4d}: mean load {g['mean_load']:8.3f} N  MSE {g['mse']:.4f} N^2"
+              + (f"  R2 {g['r2']:.3f}" if g["r2"] is not None else "") for g in report["held_out_groups"]]
     return "\n".join(lines)
 
 
