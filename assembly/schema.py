@@ -1,12 +1,24 @@
-"""Skill documentation and the JSON Schema of the tree language, generated from the skill
-declarations so editors (yaml-language-server) check trees as they are typed."""
+"""Skill and scene documentation and the JSON Schema of the tree language, generated from the
+skill declarations and the scenes table (plug-ins included) so editors (yaml-language-server)
+check trees as they are typed."""
 
 from __future__ import annotations
 
+import inspect
+import re
+import sys
+import typing
+from pathlib import Path
+
 from assembly.language import PARAM_TYPES
 from assembly.node_kinds import NODE, NODE_KINDS, SCHEMA_DEFS
+from assembly.plugins import load_plugins
 from behaviours.base import Param
-from behaviours.registry import SKILLS
+from behaviours.registry import PROJECT, SKILL_PACKAGES, SKILLS
+from perception.errors import FvtreeError
+from perception.yaml_source import load_file
+
+DEMO_TREES = Path(__file__).resolve().parents[1] / "trees"
 
 
 def _default(p: Param):
@@ -14,10 +26,12 @@ def _default(p: Param):
 
 
 def describe_skills() -> dict[str, dict]:
-    """Every skill: summary, params (type, default, unit, range, description), keys."""
+    """Every skill: package, summary, params (type, default, unit, range, description), keys."""
+    load_plugins()
     out = {}
     for name, cls in sorted(SKILLS.items()):
         out[name] = {
+            "package": SKILL_PACKAGES.get(name, PROJECT),
             "summary": cls.SUMMARY or (cls.__doc__ or "").strip().splitlines()[0],
             "params": {k: {"type": p.type, "default": _default(p), "required": p.required, "unit": p.unit,
                            "min": p.min, "max": p.max, "choices": list(p.choices) if p.choices else None,
@@ -31,7 +45,7 @@ def describe_skills() -> dict[str, dict]:
 def skills_table() -> str:
     lines = []
     for name, d in describe_skills().items():
-        lines.append(f"{name}: {d['summary']}")
+        lines.append(f"{name}: {d['summary']}" + (f" [plug-in {d['package']}]" if d["package"] != PROJECT else ""))
         for pname, p in d["params"].items():
             rng = ""
             if p["min"] is not None or p["max"] is not None:
@@ -49,7 +63,15 @@ def skills_table() -> str:
 
 def tree_schema() -> dict:
     """JSON Schema (draft 2020-12) of a tree file, every node kind and skill included."""
+    load_plugins()
     variants = [variant for name, kind in NODE_KINDS.items() for variant in kind.json_schema(name)]
+    for variant in variants:  # a plug-in's skill says which package it comes from
+        skill = variant["properties"].get("skill", {}).get("const")
+        if SKILL_PACKAGES.get(skill, PROJECT) != PROJECT:
+            variant["description"] += f" [plug-in {SKILL_PACKAGES[skill]}]"
+    scenes = describe_scenes()
+    scene = {"enum": sorted(scenes), "description": "the simulated scene (`fvtree scenes`): " + "; ".join(
+        f"{n}: {d['simulates']}" for n, d in sorted(scenes.items()))}
     param_decl = {"anyOf": [{"enum": list(PARAM_TYPES)},
                             {"type": "object", "required": ["type"], "additionalProperties": False,
                              "properties": {"type": {"enum": list(PARAM_TYPES)}, "default": {},
@@ -64,7 +86,7 @@ def tree_schema() -> dict:
             "version": {"const": 1}, "name": {"type": "string"}, "doc": {"type": "string"},
             "cell": {"type": "object", "additionalProperties": False,
                      "properties": {"tick_hz": {"type": "number", "exclusiveMinimum": 0, "maximum": 1000},
-                                    "scene": {"type": "string"},
+                                    "scene": scene,
                                     "tolerances": {"type": "object", "description": "limits of the simulated "
                                                    "run's verdict from the scene's truth (`fvtree scenes`)",
                                                    "additionalProperties": {"type": "number", "minimum": 0}}}},
@@ -77,3 +99,72 @@ def tree_schema() -> dict:
         },
         "$defs": {"node": {"oneOf": variants}, **SCHEMA_DEFS},
     }
+
+
+def _first_paragraph(text: str | None) -> str:
+    return " ".join((text or "").strip().split("\n\n")[0].split())
+
+
+def _first_sentence(text: str | None) -> str:
+    return re.split(r"(?<=\.)\s", _first_paragraph(text), maxsplit=1)[0]
+
+
+def _scene_params(build) -> str:
+    """What a scene builder's docstring says of its args (a builder made by a factory: the
+    factory's docstring, with the values it was made with)."""
+    doc = inspect.getdoc(build)
+    made_with = ""
+    if doc is None and ".<locals>." in build.__qualname__:
+        factory = getattr(sys.modules[build.__module__], build.__qualname__.split(".<locals>.")[0], None)
+        doc = inspect.getdoc(factory)
+        made_with = ", ".join(f"{k}={v!r}" for k, v in inspect.getclosurevars(build).nonlocals.items())
+    text = _first_paragraph(doc)
+    return f"{text} ({made_with})" if made_with else text
+
+
+def _tolerances(build) -> dict[str, float]:
+    """The tolerances of the verdict the scene a builder returns knows, with their defaults."""
+    try:
+        scene = typing.get_type_hints(build).get("return")
+    except (NameError, TypeError):
+        return {}
+    return dict(getattr(scene, "TOLERANCES", {}) or {})
+
+
+def _demo_trees() -> dict[str, list[str]]:
+    """scene -> the shipped trees (trees/*.yaml) that ask for it."""
+    out: dict[str, list[str]] = {}
+    for path in sorted(DEMO_TREES.glob("*.yaml")):
+        try:
+            doc = load_file(path)
+        except FvtreeError:
+            continue
+        cell = doc.get("cell") if isinstance(doc, dict) else None
+        scene = cell.get("scene", "assembly") if isinstance(cell, dict) else "assembly"
+        out.setdefault(str(scene), []).append(f"trees/{path.name}")
+    return out
+
+
+def describe_scenes() -> dict[str, dict]:
+    """Every simulated scene: its package, what it simulates, its params, the tolerances of its
+    verdict and the demo trees that use it."""
+    from drivers.sim.scenes import SCENE_PACKAGES, SCENES  # the simulators are large: imported when needed
+
+    load_plugins()
+    trees = _demo_trees()
+    return {name: {"package": SCENE_PACKAGES.get(name, PROJECT),
+                   "simulates": _first_sentence(sys.modules[build.__module__].__doc__),
+                   "params": _scene_params(build), "tolerances": _tolerances(build), "trees": trees.get(name, [])}
+            for name, build in sorted(SCENES.items())}
+
+
+def scenes_table() -> str:
+    lines = []
+    for name, d in describe_scenes().items():
+        lines.append(f"{name}: {d['simulates']}" + (f" [plug-in {d['package']}]" if d["package"] != PROJECT else ""))
+        lines.append(f"    params: {d['params'] or 'none'}")
+        if d["tolerances"]:
+            lines.append("    tolerances: " + ", ".join(f"{k} (default {v:g})" for k, v in d["tolerances"].items()))
+        lines.append(f"    demo trees: {', '.join(d['trees']) or 'none'}")
+        lines.append("")
+    return "\n".join(lines).rstrip() + "\n"

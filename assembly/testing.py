@@ -8,6 +8,10 @@
     assert h.blackboard("/task/grasp_width") > 0.03
     assert h.arm.commands_named("move_linear")
 
+Any node can be replaced by a test double, by path or glob (`assembly.substitution`):
+
+    h = TreeHarness.from_file("trees/assembly.yaml", cell=cell, substitute={"*/pick_once/grasp": "running:3:success"})
+
 The mocked cell is a kinematic arm (behind the real safety layer) and a gripper that record
 every command; perception comes from a script: a function of (tick, time), or a table of rows
 `(from_tick, {finger: touch(...)})`. `TreeHarness.from_text(..., cell=load_cell(...))` runs the same
@@ -16,9 +20,10 @@ tree on the full simulated cell instead, optionally with scripted perception on 
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable
+from typing import Any
 
 import numpy as np
 from py_trees.blackboard import Blackboard
@@ -28,6 +33,8 @@ from assembly.blackboard import clear_blackboard
 from assembly.design import DesignModel
 from assembly.loader import BuiltTree, build, load_tree
 from assembly.runner import Runner
+from assembly.substitution import Rule, rules_from
+from assembly.substitution import substitute as apply_substitutions
 from drivers.cell import Cell
 from drivers.clock import SimClock
 from drivers.safe_gripper import SafeGripper
@@ -39,6 +46,8 @@ from drivers.sim.scenes.base import Scene
 from drivers.sim.scenes.grip import empty_contacts
 from perception.errors import did_you_mean
 from perception.state import FINGERS, ObjectInfo, TactileState
+
+Substitutions = dict[str, str | dict] | list[Rule] | None  # {PATH or glob: SPEC} or rules
 
 HOME = np.array([0.0, 0.0, 0.5, np.pi, 0.0, 0.0])
 
@@ -153,22 +162,27 @@ class TreeHarness:
     cell: Cell
     design: DesignModel | None = None
     _script: Script | None = field(default=None, repr=False)
+    substitutions: list[dict] = field(default_factory=list)  # what `substitute` replaced (path, was, double)
     _runner: Runner = field(init=False, repr=False)
 
     @classmethod
     def from_text(cls, text: str, cell: Cell | None = None, design: DesignModel | None = None,
-                  name: str = "<test tree>") -> "TreeHarness":
-        return cls.load(load_tree(text=text, name=name, dataflow=False), cell, design)
+                  name: str = "<test tree>", substitute: Substitutions = None) -> TreeHarness:
+        return cls.load(load_tree(text=text, name=name, dataflow=False), cell, design, substitute)
 
     @classmethod
     def from_file(cls, path: str | Path, cell: Cell | None = None,
-                  design: DesignModel | None = None) -> "TreeHarness":
-        return cls.load(load_tree(path, dataflow=False), cell, design)
+                  design: DesignModel | None = None, substitute: Substitutions = None) -> TreeHarness:
+        return cls.load(load_tree(path, dataflow=False), cell, design, substitute)
 
     @classmethod
-    def load(cls, doc, cell: Cell | None, design: DesignModel | None) -> "TreeHarness":
+    def load(cls, doc, cell: Cell | None, design: DesignModel | None,
+             substitute: Substitutions = None) -> TreeHarness:
+        """`substitute` replaces nodes by path or glob with test doubles: `{PATTERN: SPEC}` or
+        `Rule`s (`assembly.substitution`); `harness.substitutions` lists what was replaced."""
         clear_blackboard()
-        return cls(build(doc), cell or mock_cell(doc.tick_hz), design or doc.design)
+        doc, made = apply_substitutions(doc, rules_from(substitute or {}, "TreeHarness"))
+        return cls(build(doc), cell or mock_cell(doc.tick_hz), design or doc.design, substitutions=made)
 
     def __post_init__(self):
         if self.design is not None:
@@ -177,7 +191,7 @@ class TreeHarness:
         self._runner.setup()
 
     # ---- perception ------------------------------------------------------------------------
-    def script(self, script: Script | list) -> "TreeHarness":
+    def script(self, script: Script | list) -> TreeHarness:
         """Script perception: a function (tick, time) -> {finger: TactileState}, or table rows.
         Fingers the script leaves out come from the cell (the simulated world, or nothing)."""
         self._script = table(script) if isinstance(script, list) else script

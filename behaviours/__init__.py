@@ -1,4 +1,5 @@
-"""One py_trees behaviour per tactile skill, registered by its YAML name."""
+"""One py_trees behaviour per tactile skill, registered by its YAML name. Skills of other installed
+packages register through entry points (group `fvtree.skills`, loaded by `assembly.plugins`)."""
 
 from behaviours import (  # noqa: F401  (importing registers the skills)
     approach_plate,
@@ -26,4 +27,4 @@ from behaviours import (  # noqa: F401  (importing registers the skills)
 from behaviours.base import Param, ProgramSkill, Skill
 from behaviours.registry import SKILLS, register
 
-__all__ = ["Param", "ProgramSkill", "SKILLS", "Skill", "register"]
+__all__ = ["SKILLS", "Param", "ProgramSkill", "Skill", "register"]

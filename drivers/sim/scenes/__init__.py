@@ -4,8 +4,8 @@ contact model."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 from drivers.cell_file import CellFileError, section
 from drivers.protocols import Clock, PerceptionSource, SceneArm, SceneGripper, World
@@ -26,6 +26,9 @@ SCENES: dict[str, Callable[[SceneArm, SceneGripper, dict, dict, int], World]] = 
     "press": press.build,
     "stir": stir.build,
 }
+
+# scene name -> the package providing it (plug-in packages add theirs through `assembly.plugins`)
+SCENE_PACKAGES: dict[str, str] = dict.fromkeys(SCENES, "fvtree")
 
 SENSOR_FIELDS = set(SensorModel.__dataclass_fields__) - {"finger", "seed"}
 WORLD_FIELDS = set(assembly.SceneConfig.__dataclass_fields__) - {"seed"}
