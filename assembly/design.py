@@ -28,7 +28,9 @@ from assembly.files import append_json_line_or_stderr, atomic_write_json, read_j
 from perception.errors import did_you_mean
 from perception.yaml_source import Located, read_text
 
-STATUSES = ("planned", "placing", "placed")  # placing: released but not yet recorded as standing
+# placing: released but not yet recorded as standing. A live link (assembly.design_link) also shows
+# the passing states picking and failed, which no design or as-built file holds.
+STATUSES = ("planned", "placing", "placed")
 
 
 def _vector(length: int, doc: str, items: dict | None = None) -> dict:
@@ -54,6 +56,7 @@ NODE_SCHEMAS = {
             "status": {"enum": list(STATUSES), "default": "planned"},
             "asbuilt_pose": {"anyOf": [_POSE, {"type": "null"}]},
             "measured_load": {"type": ["number", "null"], "description": "N"},
+            "cell": {"type": "string", "description": "the cell that placed it, when several cells build one design"},
         },
     },
     "plate": {
@@ -78,6 +81,7 @@ DOCUMENT_SCHEMA = {
         "nodes": {"type": "array", "items": {"type": "object"}}, "edges": {"type": "array", "items": {"type": "object"}},
     },
 }
+WAIT = "<wait>"  # what a dispatcher answers while no element may be built yet (not a valid element id here)
 _JSON_TYPES = {"string": str, "array": list, "object": dict, "boolean": bool, "null": type(None)}
 
 
@@ -148,6 +152,15 @@ def _object_problems(obj: dict, schema: dict, what: str) -> Iterator[tuple[str, 
         problem = schema_problem(value, known[key]) if key in known else None
         if problem:
             yield f"{what}: field {key!r} {problem}", key, None
+
+
+def node_problems(node: dict) -> list[tuple[str, str | None, str | None]]:
+    """(message, field, hint) for each way a design node (with its id and kind) breaks its schema."""
+    kind = node.get("kind")
+    if kind not in NODE_SCHEMAS:
+        return [(f"node {node.get('id')!r}: kind must be 'element' or 'plate', got {_short(kind)}", "kind",
+                 did_you_mean(kind, NODE_SCHEMAS))]
+    return list(_object_problems(node, NODE_SCHEMAS[kind], f"{kind} {node.get('id')!r}"))
 
 
 def _read_json(path: Path) -> Any:
@@ -233,10 +246,7 @@ class DesignModel:
                 scene = f"{self.path.stem}.scene.yaml" if self.path else "the scene file next to the design"
                 self._fail(f"{kind} {node!r}: field 'sim_load' is simulation data, not design",
                            f"move it to {scene}: 'plates: {{{node}: {{EI: .., w: .., P: .., c: .., k: ..}}}}'", node)
-            if kind not in NODE_SCHEMAS:
-                self._fail(f"node {node!r}: kind must be 'element' or 'plate', got {_short(kind)}",
-                           did_you_mean(kind, NODE_SCHEMAS), node)
-            for message, _, hint in _object_problems({"id": node, **attrs}, NODE_SCHEMAS[kind], f"{kind} {node!r}"):
+            for message, _, hint in node_problems({"id": node, **attrs}):
                 self._fail(message, hint, node)
         plates = self.plates()
         for eid, attrs in self.elements().items():
@@ -278,19 +288,59 @@ class DesignBridge:
     """Sends as-built data back to the design model. Each record (`placing` before the fingers
     open, `placed` once the element stands, a person's `marked`) is first appended to the event
     log and forced to disk, then the as-built model file is replaced atomically: a crash or a
-    failed write between the two loses nothing, and `catch_up` replays the log on resume."""
+    failed write between the two loses nothing, and `catch_up` replays the log on resume.
+
+    `links` (live design links, e.g. `assembly.design_link.mqtt_bridge.MqttLink`) see every event
+    after it is logged (`on_event(record, model)`), and hand in design changes at element
+    boundaries (`apply_pending(model) -> changed ids`); the file stays the record of truth."""
 
     RECORDS = ("placing", "placed", "marked")  # events that change an element's status
 
-    def __init__(self, model: DesignModel, asbuilt_path: Path, events_path: Path):
+    def __init__(self, model: DesignModel, asbuilt_path: Path, events_path: Path, links: tuple = (),
+                 dispatcher: Any = None):
         self.model = model
         self.asbuilt_path = Path(asbuilt_path)
         self.events_path = Path(events_path)
+        self.links = list(links)
+        self.dispatcher = dispatcher  # hands out the next element when several cells share a design
         atomic_write_json(self.asbuilt_path, model.to_data())
 
+    def next_element(self, remaining: list[str]) -> str | None:
+        """The element to build next: the first one left, or the dispatcher's choice (None: all
+        done; WAIT: not yet, ask again next tick)."""
+        if self.dispatcher is not None:
+            return self.dispatcher.next_element(remaining, self.model)
+        return remaining[0] if remaining else None
+
     def event(self, kind: str, **data: Any) -> bool:
-        """Log an event (to stderr if the log cannot be written); whether it reached the log."""
-        return append_json_line_or_stderr(self.events_path, {"time": time.time(), "event": kind, **data})
+        """Log an event (to stderr if the log cannot be written) and show it to the links; whether
+        it reached the log."""
+        record = {"time": time.time(), "event": kind, **data}
+        logged = append_json_line_or_stderr(self.events_path, record)
+        self.notify(record)
+        return logged
+
+    def notify(self, record: dict) -> None:
+        """Show a record to the live links only (a passing state such as `picking`, not logged)."""
+        for link in self.links:
+            link.on_event(record, self.model)
+
+    def at_boundary(self) -> list[str]:
+        """Between two elements: apply the design changes the links received (each link checks
+        them against the model and reports what it refuses), log them and save the model; the
+        elements changed, in order."""
+        changed: list[str] = []
+        for link in self.links:
+            changed += link.apply_pending(self.model)
+        if changed:
+            self.event("design_updated", elements=changed)
+            atomic_write_json(self.asbuilt_path, self.model.to_data())
+        return changed
+
+    def close(self) -> None:
+        """Close the links (each sends what it still holds first, within its own time limit)."""
+        for link in self.links:
+            link.close()
 
     def record_placing(self, eid: str, pose, load: float | None) -> None:
         """The element is about to be released at `pose`: a resumed run must not pick it again."""

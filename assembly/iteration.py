@@ -5,18 +5,23 @@ from __future__ import annotations
 import py_trees
 from py_trees.common import Access, Status
 
+from assembly.design import WAIT
 from behaviours import keys
 
 
 class ForEachElement(py_trees.decorators.Decorator):
     """Runs its child once per unplaced element, in build order.
 
-    Before each run it publishes the element's design entry on /task/element (and the plates on
-    /task/plates). After each tick of the child it hands a new /task/asbuilt record of the
-    element to the design bridge, which writes it durably before the next tick: `placing` (the
-    skill is about to open the fingers) and then `placed`. SUCCESS when every element is placed;
-    FAILURE as soon as one element fails, or its child succeeds without a `placed` record (the
-    model keeps what was placed, so a re-run resumes there).
+    Between two elements the design bridge applies the design changes its live links received
+    (new or changed planned elements join the order; placements by other cells are stood in the
+    simulated world) and names the next element (with several cells, a coordinator may say to
+    wait: the child is not ticked meanwhile). Before each run it publishes the element's design
+    entry on /task/element (and the plates on /task/plates). After each tick of the child it
+    hands a new /task/asbuilt record of the element to the design bridge, which writes it
+    durably before the next tick: `placing` (the skill is about to open the fingers) and then
+    `placed`. SUCCESS when every element is placed; FAILURE as soon as one element fails, or its
+    child succeeds without a `placed` record (the model keeps what was placed, so a re-run
+    resumes there).
     """
 
     def __init__(self, name: str, child: py_trees.behaviour.Behaviour, only: list[str] | None = None):
@@ -24,8 +29,9 @@ class ForEachElement(py_trees.decorators.Decorator):
         self.only = only
         self.design = None
         self.bridge = None
-        self.queue: list[str] = []
+        self.world = None  # the simulated world, which stands what other cells placed
         self.current: str | None = None
+        self.waiting = False  # the dispatcher said to wait for another cell
         self._record: dict | None = None  # the last /task/asbuilt record handed on
         self.bb = self.attach_blackboard_client(name=name)
         for key in (keys.ELEMENT, keys.PLATES):
@@ -35,6 +41,7 @@ class ForEachElement(py_trees.decorators.Decorator):
     def setup(self, **kwargs) -> None:
         self.design = kwargs.get("design")
         self.bridge = kwargs.get("bridge")
+        self.world = getattr(kwargs.get("cell"), "world", None)
         if self.design is None:
             raise RuntimeError(f"{self.name}: for_each_element needs a design model (tree 'design:')")
 
@@ -51,21 +58,37 @@ class ForEachElement(py_trees.decorators.Decorator):
                 and self.design.graph.nodes[self.current].get("status") == "placing")
 
     def _publish_next(self) -> None:
-        self.current = self.queue.pop(0) if self.queue else None
+        """At an element boundary: take in design changes, then publish the next element."""
+        if self.bridge is not None:
+            for eid in self.bridge.at_boundary():
+                node = self.design.graph.nodes[eid]
+                if self.world is not None and node.get("status") == "placed" and node.get("cell"):
+                    self.world.stand(eid, node["asbuilt_pose"])  # placed by another cell (or before a restart)
+        remaining = self.remaining()
+        choice = self.bridge.next_element(remaining) if self.bridge else (remaining[0] if remaining else None)
+        self.waiting = choice == WAIT
+        self.current = None if self.waiting else choice
         self._record = None
-        if self.current is not None:
+        if self.waiting:
+            self.feedback_message = "waiting for another cell"
+        elif self.current is not None:
             self.bb.set(keys.ELEMENT, self.design.element(self.current), overwrite=True)
             self.bb.set(keys.PLATES, self.design.plates(), overwrite=True)
             self.feedback_message = f"element {self.current}"
+            if self.bridge is not None:
+                self.bridge.notify({"event": "picking", "element": self.current})
 
     def initialise(self) -> None:
-        self.queue = self.remaining()
         self._publish_next()
 
     def tick(self):
         if self.status != Status.RUNNING:
             self.initialise()
-        if self._left_placing():
+        elif self.waiting:
+            self._publish_next()
+        if self.waiting:
+            new_status = Status.RUNNING
+        elif self._left_placing():
             self.feedback_message = (f"element {self.current} was being released when its placement "
                                      "stopped: check it before building it again")
             new_status = Status.FAILURE
@@ -94,7 +117,7 @@ class ForEachElement(py_trees.decorators.Decorator):
             self.feedback_message = f"{self.current}: child succeeded without recording an as-built pose"
             return Status.FAILURE
         self._publish_next()
-        return Status.SUCCESS if self.current is None else Status.RUNNING
+        return Status.SUCCESS if self.current is None and not self.waiting else Status.RUNNING
 
     def _hand_on_record(self) -> None:
         """Record a new /task/asbuilt record of the current element (`placing` or `placed`)."""

@@ -1,0 +1,98 @@
+"""One simulated cell of a coordinated build, as its own process (tests/test_coordinator.py):
+the real design bridge, MQTT link, claim client and for_each_element, with each element's build
+scripted (a few ticks of 20 ms, then placing and placed at the element's pick pose raised 1 m).
+
+    python tests/coordinated_cell.py mqtt://127.0.0.1:PORT CELL RUN_DIR [--die-at ELEMENT]
+
+--die-at: exit abruptly (no goodbye, no renewals) once ELEMENT is being built."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import py_trees
+from py_trees.common import Access, Status
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from assembly.design import DesignBridge, DesignModel
+from assembly.design_link.mqtt_bridge import attach
+from assembly.iteration import ForEachElement
+from behaviours import keys
+
+DESIGN = ROOT / "trees" / "design" / "six_bays.json"
+TICK = 0.02  # s of wall time per tick
+BUILD_TICKS = 10
+
+
+class World:
+    """What the simulated world needs here: where other cells' elements stand."""
+
+    def __init__(self):
+        self.standing: dict[str, list[float]] = {}
+
+    def stand(self, element_id: str, pose) -> None:
+        self.standing[element_id] = list(pose)
+
+
+class Cell:
+    def __init__(self):
+        self.world = World()
+
+
+class ScriptedBuild(py_trees.behaviour.Behaviour):
+    def __init__(self, die_at: str | None):
+        super().__init__("build")
+        self.die_at = die_at
+        self.bb = self.attach_blackboard_client("build")
+        self.bb.register_key(key=keys.ELEMENT, access=Access.READ)
+        self.bb.register_key(key=keys.ASBUILT, access=Access.WRITE)
+
+    def initialise(self) -> None:
+        self.step = 0
+
+    def update(self) -> Status:
+        element = self.bb.get(keys.ELEMENT)
+        if element["id"] == self.die_at:
+            os._exit(9)  # a crash: the claim is never renewed again
+        self.step += 1
+        if self.step < BUILD_TICKS:
+            return Status.RUNNING
+        pose = (np.array(element["pick_pose"]) + [0, 0, 1.0, 0, 0, 0]).tolist()
+        status = "placing" if self.step == BUILD_TICKS else "placed"
+        self.bb.set(keys.ASBUILT, {"element": element["id"], "status": status, "pose": pose, "load": 20.0},
+                    overwrite=True)
+        return Status.RUNNING if status == "placing" else Status.SUCCESS
+
+
+def main() -> int:
+    p = argparse.ArgumentParser()
+    p.add_argument("url")
+    p.add_argument("cell")
+    p.add_argument("run_dir", type=Path)
+    p.add_argument("--die-at")
+    args = p.parse_args()
+    args.run_dir.mkdir(parents=True, exist_ok=True)
+    bridge = DesignBridge(DesignModel.load(DESIGN), args.run_dir / "asbuilt.json", args.run_dir / "events.jsonl")
+    attach(bridge, args.url, args.cell, coordinated=True)
+    node = ForEachElement("elements", ScriptedBuild(args.die_at))
+    cell = Cell()
+    node.setup(design=bridge.model, bridge=bridge, cell=cell)
+    bridge.event("start", cell=args.cell)
+    deadline = time.monotonic() + 120
+    while node.status in (Status.INVALID, Status.RUNNING) and time.monotonic() < deadline:
+        node.tick_once()
+        time.sleep(TICK)
+    bridge.event("end", status=node.status.name, stood=sorted(cell.world.standing))
+    bridge.close()
+    return 0 if node.status == Status.SUCCESS else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
