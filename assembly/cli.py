@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 from typing import Callable
 
+from assembly.design_link.commands import add_design_link_commands, add_link_options
 from perception.errors import FvtreeError, FvtreeErrors
 
 EXIT_FAILURE = 1  # the tree ran and failed, or a check failed
@@ -20,6 +21,7 @@ BENCHES = {
     "perception": "assembly.bench.perception",
     "drivers": "assembly.bench.drivers",
     "skills": "assembly.bench.skills",
+    "recording": "assembly.bench.recording",
 }
 
 
@@ -75,15 +77,26 @@ def _walk(spec):
 RUN_EXIT = {"SUCCESS": 0, "FAULT": 3, "CRASHED": 4, "TASK_FAILED": 5}  # any other result: EXIT_FAILURE
 
 
+def _substitution_rules(texts: list[str], files: list[str]) -> list:
+    """The --substitute rules, then those of each --substitute-file, in order."""
+    from assembly.substitution import load_rules, parse_rule
+
+    return [parse_rule(t) for t in texts] + [rule for f in files for rule in load_rules(f)]
+
+
 def cmd_run(args) -> int:
+    from assembly.observe.replay import live_view
     from assembly.session import run_tree
 
-    summary = run_tree(
-        args.tree, cell=args.cell, seed=args.seed, realtime=args.speed == "realtime",
-        perception=args.perception, runs_dir=Path(args.runs_dir), resume=args.resume,
-        estop_at=args.estop_at, max_time=args.max_time, plots=not args.no_plots, marks=dict(args.mark),
-        scene=args.scene,
-    )
+    rules = _substitution_rules(args.substitute, args.substitute_file)
+    with live_view(args.view, say=lambda line: print(line, file=sys.stderr)) as viewer:
+        summary = run_tree(
+            args.tree, substitutions=rules, cell=args.cell, seed=args.seed, realtime=args.speed == "realtime",
+            perception=args.perception, runs_dir=Path(args.runs_dir), resume=args.resume,
+            estop_at=args.estop_at, max_time=args.max_time, plots=not args.no_plots, marks=dict(args.mark),
+            scene=args.scene, record=not args.no_record, live=viewer.grpc if viewer else None,
+            bridge_url=args.bridge, cell_name=args.cell_name, coordinated=args.coordinated,
+        )
     if summary.get("nothing_to_do"):
         return 0
     if args.debug and summary.get("traceback"):
@@ -116,6 +129,16 @@ def cmd_skills(args) -> int:
     return 0
 
 
+def cmd_scenes(args) -> int:
+    from assembly.schema import describe_scenes, scenes_table
+
+    if args.json:
+        print(json.dumps(describe_scenes(), indent=1))
+    else:
+        print(scenes_table(), end="")
+    return 0
+
+
 def cmd_schema(args) -> int:
     from assembly.schema import tree_schema
 
@@ -125,6 +148,44 @@ def cmd_schema(args) -> int:
         print(f"wrote {args.out}")
     else:
         print(text)
+    return 0
+
+
+def _write_or_print(text: str, out: str | None) -> None:
+    if out:
+        Path(out).write_text(text)
+        print(f"wrote {out}")
+    else:
+        print(text, end="")
+
+
+def cmd_export(args) -> int:
+    from assembly.btcpp import export_tree
+
+    _write_or_print(export_tree(args.tree, Path(args.out).parent if args.out else Path("."), args.subtree_models),
+                    args.out)
+    return 0
+
+
+def cmd_import(args) -> int:
+    from assembly.btcpp import import_xml
+
+    _write_or_print(import_xml(args.xml, args.out or "imported.yaml"), args.out)
+    return 0
+
+
+def cmd_view(args) -> int:
+    from assembly.observe.replay import view
+
+    return view(Path(args.run_dir), web=not args.native, web_port=args.web_port, grpc_port=args.port)
+
+
+def cmd_sensor(args) -> int:
+    from assembly.observe.sensor_view import sensor_view
+
+    seen = sensor_view(args.source, Path(args.map), args.preset, args.finger, args.frames,
+                       Path(args.save) if args.save else None, not args.no_view, args.image_every)
+    print(f"{seen['frames']} frames, {seen['unhealthy']} unhealthy, {seen.get('markers', 0)} markers in the map")
     return 0
 
 
@@ -223,9 +284,18 @@ def parser() -> argparse.ArgumentParser:
     r.add_argument("--max-time", type=POSITIVE, default=3600.0, metavar="SECONDS",
                    help="give up after this much cell time")
     r.add_argument("--no-plots", action="store_true", help="skip the PNG charts")
+    r.add_argument("--no-record", action="store_true", help="do not write the run's recording (recording.rrd)")
+    r.add_argument("--view", action="store_true",
+                   help="stream the run live to a web viewer on 127.0.0.1 (kept serving until Ctrl-C)")
     r.add_argument("--mark", type=_mark, action="append", default=[], metavar="ELEMENT=placed|planned",
                    help="with --resume: after checking the cell, mark an element a stopped run left being "
                         "placed (placed: it stands; planned: build it again)")
+    r.add_argument("--substitute", action="append", default=[], metavar="PATH=SPEC",
+                   help="replace the node at PATH (or every node a glob matches; * crosses /) with a test double: "
+                        "success, failure, running, running:N:success|failure, or skill:TYPE[:{json params}]")
+    r.add_argument("--substitute-file", action="append", default=[], metavar="RULES.json",
+                   help='substitutions from a JSON file {"PATH or glob": SPEC, ...}')
+    add_link_options(r)
     r.set_defaults(func=cmd_run)
 
     v = sub.add_parser("validate", help="check tree, design (.json) or cell files without running or connecting")
@@ -244,9 +314,48 @@ def parser() -> argparse.ArgumentParser:
     k.add_argument("--json", action="store_true")
     k.set_defaults(func=cmd_skills)
 
+    sc = sub.add_parser("scenes", help="list the simulated scenes: what each simulates, its params, the demo "
+                                       "trees that use it")
+    sc.add_argument("--json", action="store_true")
+    sc.set_defaults(func=cmd_scenes)
+
     j = sub.add_parser("schema", help="JSON Schema of the tree language, for editors")
     j.add_argument("--out", help="write to this file instead of stdout")
     j.set_defaults(func=cmd_schema)
+
+    ex = sub.add_parser("export", help="write a tree as BehaviorTree.CPP v4 XML, for Groot2 (docs/btcpp.md)")
+    ex.add_argument("tree")
+    ex.add_argument("--format", choices=("btcpp",), default="btcpp", help="output format (default: btcpp)")
+    ex.add_argument("-o", "--out", help="file to write (default: stdout)")
+    ex.add_argument("--subtree-models", action="store_true",
+                    help="also declare the subtrees' ports in <TreeNodesModel> as Groot2 does (not valid against "
+                         "BT.CPP's XSD)")
+    ex.set_defaults(func=cmd_export)
+
+    im = sub.add_parser("import", help="read BehaviorTree.CPP v4 XML (e.g. from Groot2) into a YAML tree")
+    im.add_argument("xml")
+    im.add_argument("-o", "--out", help="YAML file to write (default: stdout; paths then relative to the "
+                                        "current directory)")
+    im.set_defaults(func=cmd_import)
+
+    vw = sub.add_parser("view", help="replay a run's recording in the Rerun viewer (web, on 127.0.0.1)")
+    vw.add_argument("run_dir", metavar="RUN_DIR")
+    vw.add_argument("--native", action="store_true", help="open the native viewer instead (needs a display)")
+    vw.add_argument("--port", type=POSITIVE_INT, default=9876, help="gRPC port of the viewer server")
+    vw.add_argument("--web-port", type=POSITIVE_INT, default=9090, help="port of the web viewer page")
+    vw.set_defaults(func=cmd_view)
+
+    sn = sub.add_parser("sensor", help="set up a FingerVision skin: live image, markers, calibration, health, "
+                                       "wrench; saves the marker map")
+    sn.add_argument("source", help="camera device index, video file, or MJPEG/RTSP URL")
+    sn.add_argument("--map", default="marker_map.yaml", help="marker map file to write (default: marker_map.yaml)")
+    sn.add_argument("--preset", default="fast", help="perception preset (default: fast)")
+    sn.add_argument("--finger", choices=("left", "right"), default="right")
+    sn.add_argument("--frames", type=POSITIVE_INT, default=None, help="stop after this many frames")
+    sn.add_argument("--save", default=None, metavar="FILE.rrd", help="also write a recording")
+    sn.add_argument("--image-every", type=POSITIVE_INT, default=1, metavar="N", help="send every N-th image")
+    sn.add_argument("--no-view", action="store_true", help="no web viewer (with --save: record only)")
+    sn.set_defaults(func=cmd_sensor)
 
     b = sub.add_parser("bench", help="benchmarks that write a table and a chart")
     b.add_argument("name", choices=sorted(BENCHES))
@@ -284,6 +393,7 @@ def parser() -> argparse.ArgumentParser:
                     help="stir: test on every trial of this recording of another session (fvtree record "
                          "--seed N) instead of holding out trials of DATA")
     tr.set_defaults(func=cmd_train)
+    add_design_link_commands(sub)
     return p
 
 

@@ -9,9 +9,11 @@ from pathlib import Path
 import py_trees
 
 from assembly.design import DesignModel
+from assembly.doubles import DOUBLE_KINDS
 from assembly.errors import TreeError, TreeErrors
 from assembly.language import NodeSpec, Scope, SubtreeDef, Validator, dataflow_errors, short, subtree_params
 from assembly.node_kinds import NODE_KINDS
+from assembly.plugins import load_plugins
 from behaviours.keys import PERCEPTION_KEYS
 from perception.errors import FvtreeError, did_you_mean
 from perception.yaml_source import Located, load_file, load_text
@@ -165,6 +167,7 @@ def load_tree(path: str | Path | None = None, text: str | None = None, name: str
     """Parse and validate a tree file (or `text`); raises TreeErrors listing every problem.
     `dataflow` also refuses a node that reads a blackboard key nothing ticking before it writes
     (off for tests that put the keys on the blackboard by hand)."""
+    load_plugins()
     file = str(path) if path is not None else name
     try:
         doc = load_file(path) if text is None else load_text(text, file)
@@ -208,11 +211,13 @@ class BuiltTree:
 
 
 def build(doc: TreeDocument) -> BuiltTree:
-    """The py_trees tree of a validated document: each node built by its kind, children first."""
+    """The py_trees tree of a validated document: each node built by its kind (or, for a test
+    double `assembly.substitution` put in place, by its double kind), children first."""
     nodes: dict[str, py_trees.behaviour.Behaviour] = {}
 
     def make(spec: NodeSpec) -> py_trees.behaviour.Behaviour:
-        node = NODE_KINDS[spec.kind].build(spec, [make(c) for c in spec.children])
+        kind = NODE_KINDS[spec.kind] if spec.kind in NODE_KINDS else DOUBLE_KINDS[spec.kind]
+        node = kind.build(spec, [make(c) for c in spec.children])
         nodes[spec.path] = node
         return node
 

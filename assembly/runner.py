@@ -15,9 +15,10 @@ from __future__ import annotations
 
 import time
 import traceback
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import Protocol
 
 import py_trees
 from py_trees.common import Status
@@ -32,6 +33,39 @@ from assembly.supervisor import Supervision, Supervisor
 from assembly.tip import Tip
 from assembly.transitions import TransitionLog
 from drivers.cell import Cell
+
+
+class BehaviourTree(py_trees.trees.BehaviourTree):
+    """py_trees' BehaviourTree, without its walk over every node for the visitors after each tick
+    when there are none (on the assembly: tree tick median 97 -> 82 us); the same otherwise."""
+
+    def tick(self, pre_tick_handler: Callable | None = None, post_tick_handler: Callable | None = None) -> None:
+        if self.visitors:
+            super().tick(pre_tick_handler, post_tick_handler)
+            return
+        if pre_tick_handler is not None:
+            pre_tick_handler(self)
+        for handler in self.pre_tick_handlers:
+            handler(self)
+        for _ in self.root.tick():
+            pass
+        for handler in self.post_tick_handlers:
+            handler(self)
+        if post_tick_handler is not None:
+            post_tick_handler(self)
+        self.count += 1
+
+
+class Recorder(Protocol):
+    """A post-tick handler recording the run (`assembly.observe.recorder.RunRecorder`)."""
+
+    def __call__(self, tree: py_trees.trees.BehaviourTree) -> None: ...
+
+    def record(self, tick: int) -> None: ...
+
+    def event(self, kind: str, **data) -> None: ...
+
+    def close(self) -> None: ...
 
 
 @dataclass
@@ -64,12 +98,12 @@ class Runner:
                  progress: Callable[[str], None] | None = None,
                  sense: Callable[[], dict] | None = None,
                  estop_at: float | None = None, max_time: float = 3600.0,
-                 supervision: Supervision | None = None):
+                 supervision: Supervision | None = None, recorder: Recorder | None = None):
         self.tree = tree
         self.cell = cell
         self.bridge = bridge
         self.realtime = realtime
-        self.behaviour_tree = py_trees.trees.BehaviourTree(tree.root)
+        self.behaviour_tree = BehaviourTree(tree.root)
         self.tip = Tip(tree)
         self.stop_policy = StopPolicy(cell, self.tip, bridge, run_dir / "ESTOP" if run_dir else None,
                                       estop_at, max_time)
@@ -78,12 +112,13 @@ class Runner:
         self.load_profiles = LoadProfiles()
         self.log = TransitionLog(tree, cell.clock, run_dir / "transitions.jsonl") if run_dir else None
         self.progress = Progress(self.tip, cell.clock, progress) if progress else None
+        self.recorder = recorder
         self.behaviour_tree.add_pre_tick_handler(self.stop_policy.before_tick)
         self.behaviour_tree.add_pre_tick_handler(self.perception)
         if self.supervisor is not None:
             self.behaviour_tree.add_pre_tick_handler(self.supervisor)
             self.stop_policy.checks.insert(0, self.supervisor.check)
-        for handler in (self._kick_watchdog, self.tip, self.load_profiles, self.log, self.progress):
+        for handler in (self._kick_watchdog, self.tip, self.load_profiles, self.log, self.recorder, self.progress):
             if handler is not None:
                 self.behaviour_tree.add_post_tick_handler(handler)
         self._set_up = False
@@ -131,6 +166,8 @@ class Runner:
         finally:
             if self.log:
                 self.log.close()
+            if self.recorder:
+                self.recorder.close()
         where, message = self.tip.path, ""
         if status == Status.FAILURE:
             where, message = self._failure()
@@ -148,6 +185,10 @@ class Runner:
         self.stop_policy.halt(self.behaviour_tree.root, where or self.tip.path, event, **data)
         if self.log:
             self.log.record(self.ticks)
+        if self.recorder:
+            if self.bridge is None:  # no event log for the recorder to read: tell it
+                self.recorder.event(event, where=where or self.tip.path, **data)
+            self.recorder.record(self.ticks)
 
     def _stopped(self, stop: Stop, start: float) -> RunResult:
         where = stop.where or self.tip.path

@@ -20,11 +20,13 @@ from assembly.blackboard import clear_blackboard
 from assembly.design import DesignBridge, DesignModel
 from assembly.errors import TreeError
 from assembly.loader import TreeDocument, build, load_tree, with_scene
+from assembly.observe.recorder import run_recorder
 from assembly.progress import end_stderr_progress, stderr_progress
 from assembly.report import format_summary, plot_profiles, summarize, write_summary
 from assembly.run_dir import ASBUILT_FILE, SUMMARY_FILE, find_run, new_run_dir, write_run_file
 from assembly.runner import Runner
 from assembly.stop_policy import Terminated
+from assembly.substitution import Rule, substitute
 from assembly.supervisor import Supervision
 from assembly.verdict import judge, tolerances_for
 from drivers.cell_builders import load_cell
@@ -35,15 +37,26 @@ MARKS = ("placed", "planned")  # what a person may mark an element left `placing
 def run_tree(tree_path: str, cell: str = "sim", seed: int = 0, realtime: bool = False,
              perception: str | None = None, runs_dir: Path = Path("runs"), resume: str | None = None,
              estop_at: float | None = None, max_time: float = 3600.0, plots: bool = True,
-             quiet: bool = False, marks: dict[str, str] | None = None, scene: str | None = None) -> dict:
+             quiet: bool = False, marks: dict[str, str] | None = None, scene: str | None = None,
+             record: bool = True, live: str | None = None, bridge_url: str | None = None,
+             cell_name: str | None = None, coordinated: bool = False,
+             substitutions: list[Rule] | None = None) -> dict:
     """Run a tree file end to end; returns the summary (also written to the run directory).
 
     `marks` ({element: placed|planned}, resuming only) records a person's check of elements a
-    stopped run left being placed; `scene` replaces the tree's simulated scene."""
+    stopped run left being placed; `scene` replaces the tree's simulated scene. `record` writes
+    the run's Rerun recording into the run directory; `live` streams it to a viewer at that URL.
+    `bridge_url` (mqtt://HOST:PORT) links the design bridge live to designers under `cell_name`
+    (default: the tree's name); `coordinated` takes the elements from a design coordinator.
+    `substitutions` replace nodes by path or glob with test doubles (`assembly.substitution`)."""
     doc = load_tree(tree_path)
     if scene is not None:
         doc = with_scene(doc, scene)
+    doc, substituted = substitute(doc, substitutions or [])
     supervision = Supervision.of_cell(cell)
+    if (coordinated or cell_name) and not bridge_url:
+        raise TreeError("--coordinated and --cell-name name this cell on a broker", str(tree_path),
+                        hint="add --bridge mqtt://HOST:PORT")
     clear_blackboard()
     before: dict = {}
     if resume:
@@ -59,6 +72,10 @@ def run_tree(tree_path: str, cell: str = "sim", seed: int = 0, realtime: bool = 
         write_run_file(run_dir, doc, cell=cell, seed=seed)
         bridge = (DesignBridge(doc.design, run_dir / ASBUILT_FILE, run_dir / "events.jsonl")
                   if doc.design is not None else None)
+    if bridge is not None and bridge_url:
+        from assembly.design_link.mqtt_bridge import attach
+
+        attach(bridge, bridge_url, cell_name or doc.name, coordinated)
     design = bridge.model if bridge else None
     placed_before = [e for e in design.build_order() if design.is_placed(e)] if design else []
     # The simulated world is built from the original design: what is already placed stands.
@@ -68,9 +85,11 @@ def run_tree(tree_path: str, cell: str = "sim", seed: int = 0, realtime: bool = 
         tolerances = tolerances_for(doc, the_cell.world) if the_cell.world is not None else {}
         if placed_before and the_cell.world is not None:
             _stand_placed(the_cell.world, design, placed_before)
-        runner = Runner(build(doc), the_cell, run_dir, bridge, realtime=realtime,
+        built = build(doc)
+        recorder = run_recorder(built, the_cell, run_dir, design, record, live) if record or live else None
+        runner = Runner(built, the_cell, run_dir, bridge, realtime=realtime,
                         progress=None if quiet else stderr_progress, estop_at=estop_at, max_time=max_time,
-                        supervision=supervision)
+                        supervision=supervision, recorder=recorder)
         if bridge:
             bridge.event("start", tree=str(tree_path), cell=cell, seed=seed, resume=bool(resume))
         runner.setup()
@@ -83,13 +102,18 @@ def run_tree(tree_path: str, cell: str = "sim", seed: int = 0, realtime: bool = 
     summary = summarize(result, the_cell, design, {e: before["elements"][e] for e in placed_before
                                                    if e in before.get("elements", {})})
     summary["run_dir"] = str(run_dir)
+    if substituted:
+        summary["substitutions"] = substituted
     if the_cell.world is not None:
         judge(summary, the_cell.world, tolerances)
     _finish(summary, result, the_cell, run_dir, plots)
     if bridge:
         bridge.event("end", status=summary["status"], where=result.where, message=summary["message"])
+        bridge.close()
     if not quiet:
         print(format_summary(summary))
+        for made in substituted:
+            print(f"  substituted: {made['path']} ({made['was']}) by {made['double']}")
         print(f"  run directory: {run_dir}" + (f" (chart: {summary.get('plot')})" if summary.get("plot") else ""))
     return summary
 

@@ -85,6 +85,9 @@ class Guard:
         self._causes: list[str] = []  # every latched fault, first first
         self._lock = threading.RLock()  # the tick thread and watchdog threads both supervise
         self._last: dict[str, Any] = {}  # the last good value of each reading
+        # Told (device, command, checked arguments) of every command passed on to the driver (and of
+        # every stop), e.g. by the run recorder; they must not raise.
+        self.observers: list[Callable[[str, str, tuple], None]] = []
 
     # --- faults ---------------------------------------------------------------------------------
     def fault(self) -> str | None:
@@ -117,6 +120,8 @@ class Guard:
                 log.error("safety stop (%s): %s", self.device, reason)
 
     def _halt(self) -> None:
+        for observe in self.observers:
+            observe(self.device, "stop", ())
         try:
             self.inner.stop()
         except Exception as exc:
@@ -140,6 +145,8 @@ class Guard:
 
     def _forward(self, what: str, command: Callable[..., Any], *args) -> None:
         """Pass a checked command on; whatever the driver raises latches a fault and stops."""
+        for observe in self.observers:
+            observe(self.device, what, args)
         try:
             command(*args)
         except Exception as exc:

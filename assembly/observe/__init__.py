@@ -1,0 +1,2 @@
+"""Eyes on the cell: every run recorded as a Rerun recording (`runs/<id>/recording.rrd`), viewed
+live (`fvtree run --view`), replayed (`fvtree view RUN_DIR`), and the sensor set-up view."""

@@ -1,0 +1,354 @@
+"""`RunRecorder`: every run as a Rerun recording (`runs/<id>/recording.rrd`), written as the run
+goes, and optionally streamed live to a viewer.
+
+Timelines `tick` and `cell_time`. Per tick (kept in columns, sent once per batch): robot pose and
+wrench, gripper width and object flag, the tool's 3-D transform, and per finger the marker
+displacement arrows, force, torque, slip, object area/centroid/orientation and health. When they
+change: node statuses (graph colours and a structured `tree/status` row with the feedback), the
+marker origins and validity, the feedback of running nodes (`tree/feedback`: e.g. each sample of a
+load scan), the element being built, the load profile, the events of the run
+(placements, faults, halts) with the placed elements in 3-D. Every command that passes the safety
+gate of arm and gripper (`Guard.observers`). A batch is sent every `batch` ticks or `max_wait` s of
+wall time, whichever comes first, so a killed run keeps all but its last batch.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import py_trees
+import rerun as rr
+from py_trees.blackboard import Blackboard
+from py_trees.common import Status
+
+from assembly.design import DesignModel
+from assembly.loader import BuiltTree
+from assembly.observe.columns import Block, Sparse, time_columns
+from assembly.observe.layout import default_blueprint
+from assembly.observe.scene3d import element_box, plate_boxes, quaternions
+from assembly.observe.tree_graph import tree_graph
+from behaviours import keys
+from drivers.cell import Cell
+from perception.state import FINGERS
+
+APPLICATION = "fvtree"
+RECORDING_FILE = "recording.rrd"
+ROBOT = {"robot/pose": (0, ["x", "y", "z", "rx", "ry", "rz"]),
+         "robot/wrench": (6, ["fx", "fy", "fz", "tx", "ty", "tz"]),
+         "gripper/width": (12, ["width"]), "gripper/object": (13, ["object"])}
+FINGER = {"force": (0, ["x", "y", "z"]), "torque": (3, ["x", "y", "z"]), "slip": (6, ["slip"]),
+          "object": (7, ["area", "centroid x", "centroid y", "orientation"]),
+          "health": (11, ["healthy", "valid markers", "object present"])}
+ROBOT_WIDTH, FINGER_WIDTH = 14, 14  # scalars per tick: robot and gripper, each finger
+VALID_RGBA, INVALID_RGBA = np.uint32(0x3CB44BFF), np.uint32(0xDC322FFF)  # tracked, lost markers (packed RGBA)
+EVENT_LEVELS = {"crashed": "CRITICAL", "halted": "WARN", "failed": "WARN"}
+NODE_RADIUS = 14.0  # tree graph nodes, in the graph's units (nodes are X_STEP apart)
+PROFILE_HEIGHT = 0.4  # the load profile is drawn this high for its span (a 2-D view keeps aspect)
+
+
+class RunRecorder:
+    """Post-tick handler recording a run (see the module docstring); `close()` sends what is left.
+
+    `path`: the .rrd file (None: no file); `live`: a gRPC URL of a viewer to stream to (None: no
+    live view). `events`: the run's event log, read as it grows."""
+
+    def __init__(self, tree: BuiltTree, cell: Cell, path: Path | None = None, live: str | None = None,
+                 design: DesignModel | None = None, events: Path | None = None, batch: int = 300,
+                 max_wait: float = 1.0):
+        self.cell = cell
+        self.path = path
+        self.batch, self.max_wait = batch, max_wait
+        self.stream = rr.RecordingStream(APPLICATION, recording_id=f"{path.parent.name}/{path.stem}" if path else None)
+        sinks = ([rr.FileSink(str(path))] if path else []) + ([rr.GrpcSink(live)] if live else [])
+        self.stream.set_sinks(*sinks, default_blueprint=default_blueprint())
+        self.stream.set_log_time_enabled(False)  # the run's own timelines only: replays are deterministic
+        self.stream.set_log_tick_enabled(False)
+        self._nodes = list(tree.nodes.items())
+        self._graph = tree_graph(tree.document.root)
+        self._order = {p: i for i, p in enumerate(self._graph.paths)}
+        self._statuses = ["INVALID"] * len(self._graph.paths)
+        self._last = {path: Status.INVALID for path, _ in self._nodes}
+        self._ticks = np.zeros(batch, np.int64)
+        self._times = np.zeros(batch)
+        self._state = Block(batch, (ROBOT_WIDTH + FINGER_WIDTH * len(FINGERS),))
+        self._arrows: dict[str, Block | None] = {f: None for f in FINGERS}
+        self._n = 0
+        self._next_tick = 0  # the tick that commands sent now belong to
+        self._sent_at = time.perf_counter()
+        self._sparse = {name: Sparse() for name in ("status", "transitions", "feedback", "graph", "commands/arm",
+                                                    "commands/gripper")}
+        self._feedback = {path: "" for path, _ in self._nodes}
+        self._valid: dict[str, Block] = {}
+        self._origins: dict[str, np.ndarray | None] = {f: None for f in FINGERS}
+        self._element = self._profile = None
+        self._design = design
+        self._events = events
+        self._events_read = 0
+        self._closed = False
+        self._static(tree)
+        for guard in (cell.arm, cell.gripper):
+            if hasattr(guard, "observers"):
+                guard.observers.append(self.command)
+
+    # ---- what never changes --------------------------------------------------------------------
+    def _static(self, tree: BuiltTree) -> None:
+        log = self.stream.log
+        g = self._graph
+        # Colours only on the timelines: static values would hide every later change of them.
+        log("tree/graph", rr.GraphNodes(g.paths, labels=g.labels, positions=g.positions, radii=NODE_RADIUS,
+                                        show_labels=True), static=True)
+        self._sparse["graph"].add(0, self.cell.clock.now(), g.colours(self._statuses))
+        log("tree/graph", rr.GraphEdges(g.edges, graph_type="directed"), static=True)
+        for entity, (_, names) in ROBOT.items():
+            log(entity, rr.SeriesLines(names=names), static=True)
+        for finger in FINGERS:
+            for what, (_, names) in FINGER.items():
+                log(f"fv/{finger}/{what}", rr.SeriesLines(names=names), static=True)
+        log("cell", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+        log("cell/tool", rr.TransformAxes3D(0.1), static=True)
+        if self._design is not None:
+            log("cell/plates", plate_boxes(self._design), static=True)
+            for eid, element in self._design.elements().items():  # on the timelines: placements move them
+                self._at(0, self.cell.clock.now(), f"cell/elements/{eid}",
+                         element_box({"id": eid, **element}, element.get("status", "planned")))
+        log("info", rr.TextDocument(f"tree {tree.document.name} ({tree.document.path}), cell {self.cell.name}, "
+                                    f"{1.0 / self.cell.clock.period:g} Hz"), static=True)
+
+    # ---- one tick --------------------------------------------------------------------------------
+    def __call__(self, tree: py_trees.trees.BehaviourTree) -> None:
+        self.record(tree.count)
+
+    def record(self, tick: int) -> None:
+        """Keep this tick's row (the snapshot the tree acted on, and the statuses it left)."""
+        if self._closed:
+            return
+        storage = Blackboard.storage
+        now = self.cell.clock.now()
+        i = self._n
+        self._next_tick = tick + 1  # commands sent from now on belong to the next tick
+        self._ticks[i], self._times[i] = tick, now
+        row = self._state.rows[i]
+        row[0:6] = storage[keys.ROBOT_POSE]
+        row[6:12] = storage[keys.ROBOT_WRENCH]
+        row[12] = storage[keys.GRIPPER_WIDTH]
+        row[13] = storage[keys.GRIPPER_OBJECT]
+        for k, finger in enumerate(FINGERS):
+            self._finger(tick, now, finger, storage[keys.FV_LEFT if k == 0 else keys.FV_RIGHT],
+                         row[ROBOT_WIDTH + FINGER_WIDTH * k:ROBOT_WIDTH + FINGER_WIDTH * (k + 1)], i)
+        self._n = i + 1
+        self._tree(tick, now)
+        self._task(tick, now, storage)
+        if self._events is not None:
+            self._read_events(tick, now)
+        if self._n == self.batch or time.perf_counter() - self._sent_at > self.max_wait:
+            self.send()
+
+    def _finger(self, tick: int, now: float, finger: str, state, out: np.ndarray, i: int) -> None:
+        out[0:3] = state.force
+        out[3:6] = state.torque
+        out[6] = state.slip
+        obj = state.obj
+        out[7], out[8:10], out[10] = obj.area, obj.centroid, obj.orientation
+        markers = state.markers
+        valid = markers.valid
+        out[11], out[12], out[13] = state.healthy, valid.mean() if len(valid) else 0.0, obj.present
+        arrows = self._arrows[finger]
+        if arrows is None or arrows.shape[0] != len(markers):
+            if arrows is not None and i:
+                self.send()
+                i = 0
+            arrows = self._arrows[finger] = Block(self.batch, (len(markers), 2), np.float32)
+            self._valid[finger] = Block(self.batch, (len(markers),), bool)
+        np.subtract(markers.position, markers.origin, out=arrows.rows[i], casting="same_kind")
+        self._valid[finger].rows[i] = valid
+        if self._origins[finger] is not markers.origin and not np.array_equal(self._origins[finger], markers.origin):
+            w, h = markers.image_size  # (re)calibrated: new origins for the arrows
+            self._at(tick, now, f"fv/{finger}/markers", rr.Arrows2D.from_fields(origins=markers.origin))
+            self._at(tick, now, f"fv/{finger}/markers/frame", rr.Boxes2D(mins=[0, 0], sizes=[w, h]))
+        self._origins[finger] = markers.origin
+
+    def _tree(self, tick: int, now: float) -> None:
+        changed = False
+        for path, node in self._nodes:
+            status = node.status
+            if status is self._last[path]:
+                if status is Status.RUNNING and node.feedback_message != self._feedback[path]:
+                    self._feedback[path] = node.feedback_message
+                    self._sparse["feedback"].add(tick, now, f"{path}: {node.feedback_message}")
+                continue
+            self._feedback[path] = node.feedback_message
+            before = self._last[path]
+            self._last[path] = status
+            self._statuses[self._order[path]] = status.name
+            changed = True
+            feedback = node.feedback_message
+            self._sparse["status"].add(tick, now, (path, status.name, feedback))
+            self._sparse["transitions"].add(
+                tick, now, (f"{path}: {before.name} -> {status.name}" + (f" ({feedback})" if feedback else ""),
+                            "WARN" if status is Status.FAILURE else "INFO"))
+        if changed:
+            self._sparse["graph"].add(tick, now, self._graph.colours(self._statuses))
+
+    def _task(self, tick: int, now: float, storage: dict) -> None:
+        element = storage.get(keys.ELEMENT)
+        if element is not self._element:
+            self._element = element
+            self._at(tick, now, "task/element", rr.TextLog(
+                f"element {element.get('id')} on plate {element.get('plate')}" if element else "no element"))
+        profile = storage.get(keys.LOAD_PROFILE)
+        if profile is not None and profile is not self._profile:
+            self._profile = profile
+            self._log_profile(tick, now, profile, (element or {}).get("id", "element"))
+
+    def _log_profile(self, tick: int, now: float, profile: dict, element: str) -> None:
+        """The scan's load along the plate (x: m along the span; y: load scaled to the drawing's
+        height, with the peak's value in its label) and the chosen point."""
+        x = np.asarray(profile["position"], float)
+        loads, smoothed = np.asarray(profile["load"], float), np.asarray(profile["smoothed"], float)
+        top = max(float(np.max(np.abs(loads))) if loads.size else 0.0, 1e-9)
+        scale = -PROFILE_HEIGHT / top  # image y points down
+        base = f"task/load_profile/{element}"
+        self._at(tick, now, f"{base}/load", rr.LineStrips2D([np.c_[x, loads * scale]], colors=[(150, 150, 150)]))
+        self._at(tick, now, f"{base}/smoothed", rr.LineStrips2D([np.c_[x, smoothed * scale]], colors=[(70, 130, 230)]))
+        self._at(tick, now, f"{base}/best", rr.Points2D(
+            [[profile["best_position"], profile["best_load"] * scale]], radii=[0.01], colors=[(220, 50, 47)],
+            labels=[f"{element}: best {profile['best_position']:.4f} m, load {profile['best_load']:.2f}"]))
+
+    def _read_events(self, tick: int, now: float) -> None:
+        try:
+            size = self._events.stat().st_size
+        except OSError:
+            return
+        if size <= self._events_read:
+            return
+        with open(self._events) as f:
+            f.seek(self._events_read)
+            text = f.read()
+        complete = text[:text.rfind("\n") + 1]
+        self._events_read += len(complete.encode())
+        for line in complete.splitlines():
+            try:
+                event = json.loads(line)
+            except ValueError:
+                continue
+            self._event(tick, now, event)
+
+    def _event(self, tick: int, now: float, event: dict) -> None:
+        kind = event.get("event", "?")
+        details = {k: v for k, v in event.items() if k not in ("time", "event", "traceback")}
+        self._at(tick, now, "events", rr.TextLog(f"{kind} {json.dumps(details)}", level=EVENT_LEVELS.get(kind, "INFO")))
+        eid = event.get("element")
+        if self._design is not None and eid in self._design.elements() and event.get("status"):
+            element = {"id": eid, **self._design.elements()[eid], "asbuilt_pose": event.get("pose")}
+            self._at(tick, now, f"cell/elements/{eid}", element_box(element, event["status"]))
+
+    def event(self, kind: str, **data: Any) -> None:
+        """Record an event the run itself reports (a halt or a crash of a run with no event log)."""
+        self._event(self._next_tick, self.cell.clock.now(), {"event": kind, **data})
+
+    def command(self, device: str, what: str, args: tuple) -> None:
+        """Safety-gate observer: a command passed on to `device`."""
+        if self._closed:
+            return
+        kept = tuple(a.copy() if isinstance(a, np.ndarray) else a for a in args)
+        self._sparse[f"commands/{device}"].add(self._next_tick, self.cell.clock.now(), (what, kept))
+
+    def _at(self, tick: int, now: float, entity: str, archetype: Any) -> None:
+        """Log something rare right away at (tick, cell time)."""
+        self.stream.set_time("tick", sequence=tick)
+        self.stream.set_time("cell_time", duration=now)
+        self.stream.log(entity, archetype)
+
+    # ---- sending -----------------------------------------------------------------------------------
+    def send(self) -> None:
+        """Send the kept rows as columns, one call per entity."""
+        n = self._n
+        send = self.stream.send_columns
+        if n:
+            index = time_columns(self._ticks[:n].copy(), self._times[:n].copy())
+            rows = self._state.rows[:n]
+            for entity, (start, names) in ROBOT.items():
+                send(entity, index, rr.Scalars.columns(scalars=rows[:, start:start + len(names)]))
+            send("cell/tool", index, rr.Transform3D.columns(translation=rows[:, 0:3], quaternion=quaternions(rows[:, 3:6])))
+            for k, finger in enumerate(FINGERS):
+                base = ROBOT_WIDTH + FINGER_WIDTH * k
+                for what, (start, names) in FINGER.items():
+                    send(f"fv/{finger}/{what}", index,
+                         rr.Scalars.columns(scalars=rows[:, base + start:base + start + len(names)]))
+                arrows = self._arrows[finger]
+                if arrows is not None and arrows.shape[0]:
+                    m = arrows.shape[0]
+                    valid = self._valid[finger].rows[:n].reshape(-1)
+                    send(f"fv/{finger}/markers", index, rr.Arrows2D.columns(
+                        vectors=arrows.rows[:n].reshape(-1, 2),
+                        colors=np.where(valid, VALID_RGBA, INVALID_RGBA)).partition([m] * n))
+        self._send_sparse()
+        self._n = 0
+        self._sent_at = time.perf_counter()
+
+    def _send_sparse(self) -> None:
+        send = self.stream.send_columns
+        taken = self._sparse["status"].take()
+        if taken:
+            index, rows = taken
+            node, status, feedback = (list(c) for c in zip(*rows))
+            send("tree/status", index, rr.AnyValues.columns(node=node, status=status, feedback=feedback))
+        taken = self._sparse["transitions"].take()
+        if taken:
+            index, rows = taken
+            text, level = (list(c) for c in zip(*rows))
+            send("tree/transitions", index, rr.TextLog.columns(text=text, level=level))
+        taken = self._sparse["feedback"].take()
+        if taken:
+            index, text = taken
+            send("tree/feedback", index, rr.TextLog.columns(text=text))
+        taken = self._sparse["graph"].take()
+        if taken:
+            index, colours = taken
+            send("tree/graph", index, rr.GraphNodes.columns(
+                node_ids=self._graph.paths * len(colours), colors=np.concatenate(colours)).partition(
+                [len(self._graph.paths)] * len(colours)))
+        for device in ("arm", "gripper"):
+            taken = self._sparse[f"commands/{device}"].take()
+            if taken:
+                index, rows = taken
+                send(f"commands/{device}", index, rr.TextLog.columns(text=[_command_text(*r) for r in rows]))
+
+    def close(self) -> None:
+        """Send what is kept, write it out and detach from the safety gates; later ticks are dropped."""
+        if self._closed:
+            return
+        self.send()
+        self._closed = True
+        for guard in (self.cell.arm, self.cell.gripper):
+            if self.command in getattr(guard, "observers", []):
+                guard.observers.remove(self.command)
+        self.stream.flush()
+        self.stream.disconnect()
+
+
+def _command_text(what: str, args: tuple) -> str:
+    return f"{what} " + ", ".join(str(np.round(a, 5).tolist()) if isinstance(a, np.ndarray) else
+                                  (f"{a:.5g}" if isinstance(a, float) else str(a)) for a in args)
+
+
+def recording_path(run_dir: Path) -> Path:
+    """Where the recording of this session of a run goes: `recording.rrd`, or for a resumed run
+    `recording-2.rrd`, `recording-3.rrd`, ... (earlier sessions keep theirs)."""
+    path, n = run_dir / RECORDING_FILE, 1
+    while path.exists():
+        n += 1
+        path = run_dir / f"recording-{n}.rrd"
+    return path
+
+
+def run_recorder(tree: BuiltTree, cell: Cell, run_dir: Path, design: DesignModel | None, record: bool = True,
+                 live: str | None = None) -> RunRecorder:
+    """The recorder of one `fvtree run`: to the run directory's recording file (when `record`) and
+    live to the viewer at `live` (a gRPC URL), reading the run's event log as it grows."""
+    return RunRecorder(tree, cell, recording_path(run_dir) if record else None, live, design,
+                       run_dir / "events.jsonl")

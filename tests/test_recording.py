@@ -1,0 +1,165 @@
+"""Run recordings (assembly/observe/recorder.py) read back: what entities they hold, how many rows,
+the values at given ticks against the run's transition log and event log, a killed run's
+recording, and `--no-record`."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from assembly.observe.readback import read_recording
+from assembly.observe.scene3d import ELEMENT_COLOURS
+from assembly.observe.tree_graph import STATUS_COLOURS
+from assembly.session import run_tree
+
+ROOT = Path(__file__).resolve().parents[1]
+ASSEMBLY = ROOT / "trees" / "assembly.yaml"
+FINGER_ENTITIES = ("markers", "force", "torque", "slip", "object", "health")
+
+
+@pytest.fixture(scope="module")
+def assembly_run(tmp_path_factory) -> tuple[dict, Path, dict]:
+    """One recorded simulated assembly: (summary, run directory, recording read back)."""
+    from assembly.blackboard import clear_blackboard
+
+    clear_blackboard()
+    summary = run_tree(str(ASSEMBLY), runs_dir=tmp_path_factory.mktemp("runs"), plots=False, quiet=True)
+    run_dir = Path(summary["run_dir"])
+    return summary, run_dir, read_recording(run_dir / "recording.rrd")
+
+
+def _jsonl(path: Path) -> list[dict]:
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def _statuses_until(rows: list[dict], tick: int) -> dict[str, str]:
+    """Each node's last status at or before `tick`, from `tree/status` rows of a recording."""
+    statuses = {}
+    for row in rows:
+        if row["tick"] is not None and row["tick"] <= tick:
+            statuses[row["node"][0]] = row["status"][0]
+    return statuses
+
+
+def test_every_kind_of_data_is_recorded(assembly_run):
+    _, _, rec = assembly_run
+    expected = {"tree/graph", "tree/status", "tree/transitions", "robot/pose", "robot/wrench", "gripper/width",
+                "gripper/object", "cell/tool", "cell/plates", "commands/arm", "commands/gripper", "events",
+                "task/element", "info"}
+    expected |= {f"fv/{finger}/{what}" for finger in ("left", "right") for what in FINGER_ENTITIES}
+    assert expected <= set(rec)
+    assert any(e.startswith("task/load_profile/") for e in rec)
+    assert {"cell/elements/E1", "cell/elements/E2"} <= set(rec)
+    placed = [r for r in rec["cell/elements/E1"] if r["tick"] is not None]
+    assert len(placed) >= 3 and all(r["tick"] is not None for r in rec["cell/elements/E1"])  # planned, placing, placed
+    assert placed[-1]["Boxes3D:colors"] == [_rgba(ELEMENT_COLOURS["placed"])]
+
+
+def test_one_row_per_tick_on_both_timelines(assembly_run):
+    summary, _, rec = assembly_run
+    ticks = summary["ticks"]
+    for entity in ("robot/pose", "fv/left/force", "fv/right/markers", "cell/tool"):
+        rows = [r for r in rec[entity] if r["tick"] is not None and "Scalars:scalars" in r
+                or "Arrows2D:vectors" in r and r["Arrows2D:vectors"] is not None
+                or "Transform3D:translation" in r]
+        assert [r["tick"] for r in rows] == list(range(ticks)), entity
+        assert rows[-1]["cell_time"] == pytest.approx((ticks - 1) / 30.0)
+
+
+def test_values_at_given_ticks(assembly_run):
+    _, _, rec = assembly_run
+    poses = {r["tick"]: r["Scalars:scalars"] for r in rec["robot/pose"] if r["tick"] is not None}
+    assert poses[0] == pytest.approx([0.0, 0.0, 0.5, np.pi, 0.0, 0.0])  # the sim cell's home
+    widths = [r["Scalars:scalars"][0] for r in rec["gripper/width"] if r["tick"] is not None]
+    assert 0.0 < min(widths) < max(widths) <= 0.085
+    arrows = [r for r in rec["fv/left/markers"] if r.get("Arrows2D:vectors")]
+    origins = next(r["Arrows2D:origins"] for r in rec["fv/left/markers"] if r.get("Arrows2D:origins"))
+    assert len(arrows[0]["Arrows2D:vectors"]) == len(arrows[0]["Arrows2D:colors"]) == len(origins) > 10
+    tracked = np.uint32(0x3CB44BFF)  # the recorder's colour of a tracked marker
+    assert arrows[0]["Arrows2D:colors"].count(tracked) >= 0.8 * len(origins)  # tracked before any contact
+
+
+def test_node_statuses_at_the_first_placement_match_the_transition_log(assembly_run):
+    _, run_dir, rec = assembly_run
+    placed = [r for r in rec["events"] if r["tick"] is not None and r["TextLog:text"][0].startswith("placed ")]
+    assert placed, "no placement recorded"
+    tick = placed[0]["tick"]
+    logged = {}
+    for record in _jsonl(run_dir / "transitions.jsonl"):
+        if record["tick"] <= tick:
+            logged[record["node"]] = record["to"]
+    recorded = _statuses_until(rec["tree/status"], tick)
+    assert recorded == logged
+    assert recorded["main/assemble/elements/build/prop/place"] == "RUNNING"
+    # The graph's colours at that tick say the same; none are static (a static value hides all later ones).
+    assert not any("GraphNodes:colors" in r for r in rec["tree/graph"] if r["tick"] is None)
+    graph = [r for r in rec["tree/graph"] if r["tick"] is not None and r["tick"] <= tick][-1]
+    paths = next(r["GraphNodes:node_ids"] for r in rec["tree/graph"] if r["tick"] is None and r.get("GraphNodes:node_ids"))
+    colour_of = {_rgba(v): name for name, v in STATUS_COLOURS.items()}
+    by_colour = {path: colour_of[c] for path, c in zip(paths, graph["GraphNodes:colors"])}
+    assert {p: s for p, s in by_colour.items() if s != "INVALID"} == {p: s for p, s in logged.items() if s != "INVALID"}
+
+
+def _rgba(colour: tuple[int, int, int, int]) -> int:
+    r, g, b, a = colour
+    return (r << 24) | (g << 16) | (b << 8) | a
+
+
+def test_every_transition_and_placement_is_recorded(assembly_run):
+    _, run_dir, rec = assembly_run
+    transitions = _jsonl(run_dir / "transitions.jsonl")
+    rows = [r for r in rec["tree/status"] if r["tick"] is not None]
+    assert [(r["tick"], r["node"][0], r["status"][0], r["feedback"][0]) for r in rows] == \
+           [(t["tick"], t["node"], t["to"], t["feedback"]) for t in transitions]
+    events = [e["event"] for e in _jsonl(run_dir / "events.jsonl")]
+    recorded = [r["TextLog:text"][0].split()[0] for r in rec["events"] if r["tick"] is not None]
+    assert recorded == events[:len(recorded)] and recorded.count("placed") == events.count("placed") == 2
+
+
+def test_commands_are_tapped_at_the_safety_gate(assembly_run):
+    _, _, rec = assembly_run
+    arm = [r["TextLog:text"][0] for r in rec["commands/arm"] if r["tick"] is not None]
+    gripper = [r["TextLog:text"][0] for r in rec["commands/gripper"] if r["tick"] is not None]
+    assert arm and all(t.split()[0] in ("move_linear", "speed_linear", "stop") for t in arm)
+    assert any(t.startswith("move_linear [") for t in arm)
+    assert gripper and all(t.startswith(("gripper move ", "stop")) for t in gripper)
+    # Each command is stamped with the tick that sent it: spread over the run, not piled on tick 0.
+    ticks = [r["tick"] for r in rec["commands/arm"] + rec["commands/gripper"] if r["tick"] is not None]
+    assert ticks.count(0) <= 2 and len(set(ticks)) > len(ticks) / 4
+
+
+def test_a_killed_run_keeps_a_readable_recording(tmp_path):
+    """SIGKILL mid-run (no handler runs): the recording holds every batch sent before it."""
+    runs = tmp_path / "runs"
+    process = subprocess.Popen([sys.executable, "-m", "assembly.cli", "run", str(ASSEMBLY), "--runs-dir", str(runs),
+                                "--no-plots"], cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 300
+        while time.monotonic() < deadline:
+            files = list(runs.glob("*/recording.rrd"))
+            if files and files[0].stat().st_size > 300_000:
+                break
+            assert process.poll() is None, "the run ended before it could be killed"
+            time.sleep(0.05)
+        else:
+            pytest.fail("the recording did not grow within 300 s")
+        os.kill(process.pid, signal.SIGKILL)
+    finally:
+        process.wait(timeout=60)
+    rec = read_recording(files[0])
+    ticks = [r["tick"] for r in rec["robot/pose"] if r["tick"] is not None]
+    assert len(ticks) >= 150 and ticks == list(range(len(ticks)))
+    assert rec["tree/status"][0]["node"] == ["main/estop"]
+
+
+def test_no_record_writes_no_recording(tmp_path):
+    summary = run_tree(str(ASSEMBLY), runs_dir=tmp_path, plots=False, quiet=True, record=False, max_time=1.0)
+    assert not list(Path(summary["run_dir"]).glob("*.rrd"))
