@@ -8,6 +8,8 @@ image x runs along tool x (mirrored on the left finger), image y along tool z.
 
 from __future__ import annotations
 
+from collections import deque
+
 import numpy as np
 
 from perception.state import ObjectInfo, TactileState
@@ -27,6 +29,34 @@ def hand_torque(left: TactileState, right: TactileState) -> float:
 def total_slip(left: TactileState, right: TactileState) -> float:
     """Slip summed over both fingers, as the original behaviours use it."""
     return left.slip + right.slip
+
+
+def slip_beyond_marker_flow(now: TactileState, before: TactileState, gain: float, saturation: float) -> float:
+    """One finger's slip beyond what its markers' own motion explains: the pipeline's slip is image
+    motion over the object, so markers moving under a changing load light it up as much as the
+    object sliding over them. Explained: `gain` x object area x the markers' mean motion since
+    `before` (px/frame, capped at `saturation`); what stays is the object moving against them."""
+    both = now.markers.valid & before.markers.valid
+    if not both.any() or not now.obj.present:
+        return now.slip
+    speed = float(np.linalg.norm(now.markers.position[both] - before.markers.position[both], axis=1).mean())
+    return max(0.0, now.slip - gain * now.obj.area * min(speed, saturation))
+
+
+class SteadyAngle:
+    """The object's in-hand angle as the median of the last `ticks` views: the pipeline's angle
+    is noisy (about 1 deg), so a turn judged on single frames stops early on a noisy one."""
+
+    def __init__(self, ticks: int = 5):
+        self._seen: deque[float] = deque(maxlen=ticks)
+
+    def update(self, angle: float | None) -> float | None:
+        """Add this tick's angle (None: the object is not seen, and the history is dropped)."""
+        if angle is None:
+            self._seen.clear()
+            return None
+        self._seen.append(angle)
+        return float(np.median(self._seen))
 
 
 def watched_view(left: TactileState, right: TactileState) -> tuple[ObjectInfo, float]:

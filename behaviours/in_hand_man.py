@@ -11,7 +11,7 @@ from py_trees.common import Status
 
 from behaviours import keys
 from behaviours.base import Param, ProgramSkill, time_limit
-from behaviours.hand import object_angle, total_slip
+from behaviours.hand import SteadyAngle, object_angle, total_slip
 from behaviours.registry import register
 
 
@@ -32,14 +32,15 @@ class InHandMan(ProgramSkill):
 
     def program(self):
         gripper = self.cell.gripper
-        theta0 = object_angle(*self.tactile())
+        angle = SteadyAngle()
+        theta0 = angle.update(object_angle(*self.tactile()))
         if theta0 is None:
             return self.fail("no object seen between the fingers to pivot")
         width0, turned, start, slipped = self.gripper_width(), 0.0, self.now(), False
         speed = self.p.step / self.cell.clock.period
         while turned <= self.p.target:
             left, right = self.tactile()
-            theta = object_angle(left, right)
+            theta = angle.update(object_angle(left, right))
             if theta is None:
                 return self.fail(f"the object fell out after turning {turned:.0f} deg: use a smaller 'step'")
             turned = math.degrees(abs(theta - theta0))

@@ -16,7 +16,7 @@ from py_trees.common import Status
 from behaviours import keys
 from behaviours.base import Param, ProgramSkill, time_limit
 from behaviours.control import LeakyIntegrator
-from behaviours.hand import hand_torque, object_angle, total_slip
+from behaviours.hand import SteadyAngle, hand_torque, object_angle, total_slip
 from behaviours.registry import register
 
 
@@ -30,7 +30,9 @@ class InHandRot(ProgramSkill):
         "alpha": Param("float", "leaky-integrator inertia (closer to 1 opens more slowly)", 0.99, min=0.0, max=0.999),
         "opening": Param("float", "largest opening beyond the starting width", 0.006, "m", min=0.0005, max=0.05),
         "torque_eps": Param("float", "torque variant: torque that counts as zero", 0.01, "px", min=0.0),
-        "slip": Param("float", "slip variant: slip (both fingers) that counts as turning", 0.05, min=0.0),
+        "slip": Param("float", "slip variant: slip (both fingers) that counts as turning; the pipeline's slip "
+                      "also lights up as the object turns in the image, so a turn alone should stay under it",
+                      0.1, min=0.0),
         "settle": Param("int", "torque variant: ticks of zero torque that end the rotation", 10, min=1),
         "max_time": time_limit(20.0),
         "force": Param("float", "gripper force when closing again", 40.0, "N", min=0.0),
@@ -40,14 +42,15 @@ class InHandRot(ProgramSkill):
 
     def program(self):
         gripper = self.cell.gripper
-        theta0 = object_angle(*self.tactile())
+        angle = SteadyAngle()
+        theta0 = angle.update(object_angle(*self.tactile()))
         if theta0 is None:
             return self.fail("no object seen between the fingers to rotate")
         width0, start = self.gripper_width(), self.now()
         drive, quiet, turned = LeakyIntegrator(self.p.alpha), 0, 0.0
         while turned < self.p.target:
             left, right = self.tactile()
-            theta = object_angle(left, right)
+            theta = angle.update(object_angle(left, right))
             if theta is None:
                 return self.fail(f"the object fell out after turning {turned:.0f} deg: open more slowly "
                                  "(alpha closer to 1) or less far ('opening')")

@@ -1,13 +1,16 @@
 """Peak of a noisy load profile from a continuous scan: smooth, take the best sample, then fit
 a local quadratic around it (robust under noise, where a golden-section search over single noisy
 samples is not); and how clearly the profile peaks, so a scan that found no real maximum is not
-trusted."""
+trusted, and how sharp its top is: a beam's load changes smoothly along it, so a top much
+narrower than that means the load was cut off (the grip gave way), not a maximum of the plate."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
+
+TOP = 0.03  # the top of a profile: within 3 % of its smoothed maximum
 
 
 @dataclass(frozen=True)
@@ -19,6 +22,7 @@ class PeakEstimate:
     coefficients: np.ndarray | None  # quadratic a x^2 + b x + c around the peak, if concave
     noise: float  # std of the samples about the smoothed profile
     prominence: float  # smoothed peak above the higher of the lowest points on either side
+    top_share: float  # share of the scan around the peak where the smoothed load is within TOP of it
 
     @property
     def clarity(self) -> float:
@@ -47,11 +51,12 @@ def locate_peak(x, y, smooth_window: float, fit_half_width: float) -> PeakEstima
     order = np.argsort(x)
     x, y = x[order], y[order]
     spacing = (x[-1] - x[0]) / (len(x) - 1)
-    n = max(1, int(round(smooth_window / spacing))) if spacing > 0 else 1
+    n = max(1, round(smooth_window / spacing)) if spacing > 0 else 1
     smoothed = moving_average(y, n)
     i = int(np.argmax(smoothed))
     noise = float(np.std(y - smoothed))
     prominence = float(smoothed[i] - max(smoothed[: i + 1].min(), smoothed[i:].min()))
+    top_share = _top_width(x, smoothed, i) / max(x[-1] - x[0], 1e-12)
     near = np.abs(x - x[i]) <= fit_half_width
     if near.sum() >= 5:
         coeffs = np.polyfit(x[near] - x[i], y[near], 2)
@@ -60,5 +65,16 @@ def locate_peak(x, y, smooth_window: float, fit_half_width: float) -> PeakEstima
             if abs(vertex) <= fit_half_width:
                 best = x[i] + vertex
                 return PeakEstimate(float(best), float(np.polyval(coeffs, vertex)), float(x[i]),
-                                    smoothed, coeffs, noise, prominence)
-    return PeakEstimate(float(x[i]), float(smoothed[i]), float(x[i]), smoothed, None, noise, prominence)
+                                    smoothed, coeffs, noise, prominence, top_share)
+    return PeakEstimate(float(x[i]), float(smoothed[i]), float(x[i]), smoothed, None, noise, prominence, top_share)
+
+
+def _top_width(x: np.ndarray, smoothed: np.ndarray, i: int) -> float:
+    """Width (x units) of the run of samples around the best one `i` within TOP of its load."""
+    high = smoothed >= smoothed[i] - TOP * abs(smoothed[i])
+    lo = hi = i
+    while lo > 0 and high[lo - 1]:
+        lo -= 1
+    while hi < len(x) - 1 and high[hi + 1]:
+        hi += 1
+    return float(x[hi] - x[lo])

@@ -22,6 +22,8 @@ class VisScan(ProgramSkill):
         "max_travel": Param("float", "longest scan in each direction", 0.5, "m", min=0.01),
         "length_tolerance": Param("float", "allowed difference from the design length", 0.02, "m", min=0.0),
         "speed": Param("float", "speed of the final move to the middle", 0.1, "m/s", min=0.001),
+        "reference_ticks": Param("int", "ticks the full-view area is averaged over (the seen area is noisy)", 5,
+                                 min=1),
     }
     READS = (keys.ELEMENT, keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT, keys.ROBOT_MOVING)
     WRITES = (keys.ELEMENT_LENGTH, keys.ELEMENT_POSE)
@@ -56,8 +58,12 @@ class VisScan(ProgramSkill):
 
     def program(self):
         element = self.read(keys.ELEMENT)
-        full = self._area()
-        if full <= 0.0:
+        areas = [self._area()]
+        for _ in range(self.p.reference_ticks - 1):
+            yield
+            areas.append(self._area())
+        full = float(np.mean(areas))
+        if min(areas) <= 0.0:
             return self.fail("no object in view: locate the element first")
         threshold = self.p.edge_fraction * full
         axis = rotation(self.pose())[:, 0]

@@ -63,14 +63,8 @@ CHECKS: dict[str, Callable[[dict], None]] = {
     "press_with_force.yaml": _pressed_to(5.0, 1.0),
 }
 FAILING_TODAY = {
-    "assembly.yaml": "find_max_load takes the pipeline's slip signal for a slipping grip at E1 and fails "
-                     "after its firmer re-grasp (the run placed E1 within 0.0002 % regret before the slip check)",
-    "assembly_heavy.yaml": "as assembly.yaml: a false slip in pixel mode at E1",
     "classify_substance.yaml": "the stirred flour reads as peas in pixel mode; the run stops after two bowls",
-    "hold.yaml": "the pipeline reports slip where the box does not slide; hold fails at the gripper's limit",
-    "in_hand_rot.yaml": "the stick turns 54 of 60 deg in pixel mode and the skill times out",
 }
-
 
 def _demo_trees() -> list:
     trees = sorted(p.name for p in TREES.glob("*.yaml") if not p.name.startswith("record_"))

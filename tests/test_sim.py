@@ -69,3 +69,92 @@ def test_rotation_helpers_round_trip():
         m = rotvec_to_matrix(r)
         assert np.allclose(m @ m.T, np.eye(3))
         assert np.allclose(rotvec_to_matrix(matrix_to_rotvec(m)), m, atol=1e-7)
+
+
+# ---- signals mode: the real pipeline's measured errors (drivers/sim/models/pipeline_errors.py) ----
+
+def _held(shear=(0.0, 0.0), slip: float = 0.0):
+    from drivers.sim.models.fingervision_model import FingerContact
+    from perception.state import ObjectInfo
+
+    return FingerContact(10.0, np.array(shear, float), 0.0, None, ObjectInfo(True, 0.3, np.zeros(2), 0.0), slip)
+
+
+def _errors_model(seed: int = 1):
+    from drivers.sim.models.fingervision_model import SensorModel
+
+    return SensorModel("left", seed=seed, pipeline_errors=True), SensorModel("left", noise_px=0.0)
+
+
+def test_signals_mode_markers_jitter_and_drop_out_as_the_pipeline_measured():
+    from drivers.sim.models.pipeline_errors import PipelineErrors
+
+    e = PipelineErrors()
+    model, exact = _errors_model()
+    rest = [model.state(_held(), 0.0) for _ in range(400)]
+    truth = exact.state(_held(), 0.0).markers.position
+    tracked = np.stack([s.markers.valid for s in rest])
+    jitter = np.concatenate([s.markers.position[s.markers.valid] - truth[s.markers.valid] for s in rest])
+    assert np.std(jitter) == pytest.approx(e.noise_px, rel=0.15)
+    lossy = tracked.mean(axis=0) < 0.9  # a few markers, fixed, are lost often; the others never
+    assert lossy.mean() == pytest.approx(e.lossy_share, abs=0.1) and tracked[:, ~lossy].all()
+    assert 1.0 - tracked[:, lossy].mean() == pytest.approx(e.lossy_rate, abs=0.08)
+
+
+def test_the_error_model_lags_markers_as_a_first_order_filter():
+    from drivers.sim.models.pipeline_errors import ErrorModel, PipelineErrors
+
+    model = ErrorModel(PipelineErrors(lag_alpha=0.4, noise_px=0.0, lossy_share=0.0), np.random.default_rng(0))
+    rest, moved = np.zeros((3, 2)), np.full((3, 2), 2.0)
+    model.apply(_held(), rest, np.full(3, 9.0))
+    first = model.apply(_held(), moved, np.full(3, 9.0))[0]
+    assert first == pytest.approx(0.4 * moved)
+    for _ in range(20):
+        last = model.apply(_held(), moved, np.full(3, 9.0))[0]
+    assert last == pytest.approx(moved, abs=1e-3)
+
+
+def test_signals_mode_object_and_slip_carry_the_pipeline_errors():
+    from drivers.sim.models.pipeline_errors import PipelineErrors
+
+    e = PipelineErrors()
+    model, _ = _errors_model(seed=2)
+    still = [model.state(_held(), 0.0) for _ in range(300)]
+    areas = np.array([s.obj.area for s in still])
+    assert np.median(areas) == pytest.approx(e.area_scale * 0.3, rel=0.05) and areas.std() > 0.0
+    assert np.median([s.slip for s in still]) < 0.01  # a held object at rest: only the floor
+    sliding = [model.state(_held(slip=0.3), 0.0).slip for _ in range(300)]  # 1.2 px/frame of texture
+    assert np.median(sliding) == pytest.approx(e.slip_gain * 0.3 * e.slip_saturation, rel=0.2)
+    jitter = [model.state(_held((2.0 * (i % 2), 0.0)), 0.0).slip for i in range(300)]  # markers jump, no slip
+    assert np.median(jitter) > 10 * np.median([s.slip for s in still])  # MOG2 sees markers move, too
+
+
+def test_signals_mode_errors_are_seeded():
+    a, _ = _errors_model(seed=5)
+    b, _ = _errors_model(seed=5)
+    for i in range(20):
+        sa, sb = a.state(_held((i * 0.1, 0.0), slip=0.1), 0.0), b.state(_held((i * 0.1, 0.0), slip=0.1), 0.0)
+        assert np.array_equal(sa.markers.position, sb.markers.position) and sa.slip == sb.slip
+        assert sa.obj.area == sb.obj.area
+
+
+def test_the_simulated_cell_applies_the_errors_in_signals_mode_only_unless_turned_off(tmp_path):
+    import yaml
+
+    from drivers.cell_builders import load_cell
+    from drivers.cell_file import resolve_cell_path
+
+    def area(cell_file: str, perception: str = "signals") -> float:
+        cell = load_cell(cell_file, 30, "hold", {}, perception=perception)
+        try:
+            return float(np.median([cell.sense()["left"].obj.area for _ in range(15)]))
+        finally:
+            cell.close()
+
+    data = yaml.safe_load(resolve_cell_path("sim").read_text())
+    data["sensor"]["pipeline_errors"] = False
+    exact = tmp_path / "exact.yaml"
+    exact.write_text(yaml.safe_dump(data))
+    assert area(str(exact)) == 0.3  # the scene's own view of the box
+    assert area("sim") == pytest.approx(0.66 * 0.3, rel=0.1)
+    assert area("sim", "pixels") == pytest.approx(0.66 * 0.3, rel=0.15)  # what the error model stands for

@@ -152,7 +152,7 @@ root:
 
 
 def test_sand_poured_into_a_held_box_is_not_a_tug():
-    cell = load_cell("sim", 30, "hold", {})
+    cell = load_cell("sim", 30, "hold", {"extra_load": 15.0})  # sand the gentle grasp carries
     h = TreeHarness.from_text(GIVE_IN_HOLD_SCENE, cell=cell)
     assert h.run_until_done(1000).name == "FAILURE"
     assert "no one took the object within 8 s; still holding it" in h.feedback("s/give")

@@ -106,9 +106,10 @@ def test_locate_and_scan_measure_the_element_in_the_scene():
     h.set("/task/element", E1)
     assert h.run_until_done(2000).name == "SUCCESS"
     true = cell.world.elements["E1"]
-    assert h.blackboard("/task/element_length") == pytest.approx(true.length, abs=0.001)
+    # Within the pipeline's object noise (signals mode carries it): 1-3 mm over six seeds.
+    assert h.blackboard("/task/element_length") == pytest.approx(true.length, abs=0.004)
     centre = h.blackboard("/task/element_pose")[:2]
-    assert np.linalg.norm(centre - true.pose[:2]) < 0.002  # the middle of the real element
+    assert np.linalg.norm(centre - true.pose[:2]) < 0.004  # the middle of the real element
 
 
 def test_locate_fails_when_nothing_is_between_the_fingers():
@@ -218,7 +219,7 @@ def weak_grip_plate(h, rng, capacity: float = 8.0, firm_width: float = 0.03):
         load = max(0.0, 20.0 * (1 - ((pose[0] - x0 - 0.57) / 0.35) ** 2)) if under else 0.0
         cap = capacity if h.gripper.width() > firm_width else 100.0
         ground = max(0.0, 0.5 - pose[2]) * 2000.0  # the foot pressed into the ground
-        return axial(min(load, cap) - ground + rng.normal(0, 0.4), slip=0.05 if load > cap else 0.0)
+        return axial(min(load, cap) - ground + rng.normal(0, 0.4), slip=0.1 if load > cap else 0.0)
     return script
 
 
@@ -260,6 +261,38 @@ def test_find_max_load_without_regrasps_fails_at_the_first_slip():
     assert h.run_until_done(4000).name == "FAILURE"
     assert "element E1: the element slipped" in h.feedback("s")
     assert [c.args[0] for c in h.gripper.commands_named("move")] == []  # no re-grasp tried
+
+
+def giving_grip_plate(h, rng, capacity: float = 8.0):
+    """The load under P1 as in `scripted_plate`, through a grip that gives way slowly: once the
+    load reaches `capacity` the element creeps in the grip with a slip too small to tell from the
+    pipeline's noise, and the load it passes on falls back as it creeps (a sharp peak)."""
+    x0 = PLATES["P1"]["origin"][0]
+    gave = [None]
+
+    def script(tick, t):
+        a = h.arm.pose()[0] - x0
+        under = abs(h.arm.pose()[1] - PLATES["P1"]["origin"][1]) < 0.1
+        load = max(0.0, 20.0 * (1 - ((a - 0.57) / 0.35) ** 2)) if under else 0.0
+        if gave[0] is None and load > capacity:
+            gave[0] = a
+        if gave[0] is not None and under:
+            load = capacity - 40.0 * (a - gave[0])  # the creeping element lets the plate down
+        return axial(max(load, 0.0) + rng.normal(0, 0.2), slip=0.02 if gave[0] is not None else 0.0)
+    return script
+
+
+def test_find_max_load_takes_a_peak_sharper_than_a_plate_for_a_grip_that_gave_way():
+    h = one_skill("find_max_load", "{speed: 0.05, max_regrasps: 0}")
+    h.set("/task/element", E1)
+    h.set("/task/plates", PLATES)
+    h.script(giving_grip_plate(h, np.random.default_rng(2)))
+    assert h.run_until_done(4000).name == "FAILURE"
+    assert h.feedback("s").startswith("element E1: the element slipped in the grip at 0.3")
+    assert "more sharply than a plate can" in h.feedback("s")
+    profile = h.blackboard("/task/load_profile")
+    assert profile["grip_slipped"] and profile["top_share"] < 0.08
+    assert h.blackboard("/task/best_pose") is None
 
 
 def test_find_max_load_does_not_trust_a_peak_at_the_end_of_the_scan():

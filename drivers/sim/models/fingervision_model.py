@@ -3,7 +3,10 @@
 
 Shear moves the markers inside the contact patch along the shear; normal load spreads them
 radially and grows their apparent size; torque about the finger normal turns them around the
-patch centre. Seeded Gaussian noise is added to marker positions and sizes.
+patch centre. Seeded Gaussian noise is added to marker positions and sizes; with
+`pipeline_errors` (the simulated cell's signals mode), the errors of the real pipeline measured in
+pixel mode are applied instead (`pipeline_errors.py`: marker lag, noise and dropouts, object
+misses and noise, slip as the image motion MOG2 sees, late and noisy).
 """
 
 from __future__ import annotations
@@ -12,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from drivers.sim.models.pipeline_errors import ErrorModel, PipelineErrors
 from perception.state import MarkerField, ObjectInfo, TactileState
 from perception.wrench import wrench
 
@@ -55,9 +59,10 @@ class SensorModel:
     torque_gain: float = 12.0  # px of tangential motion per N m at the patch rim
     patch_sigma: float = 90.0  # px, width of the contact patch weighting
     marker_size: float = 9.0  # px diameter at rest
-    noise_px: float = 0.05  # px, std of marker position noise
+    noise_px: float = 0.05  # px, std of marker position noise (without the pipeline error model)
     seed: int = 0
     normal_mode: str = "xy_norm"
+    pipeline_errors: bool = False  # apply the measured errors of the real pipeline (signals mode)
 
     def __post_init__(self):
         self.origin = radial_marker_layout(self.image_size)
@@ -66,6 +71,7 @@ class SensorModel:
         self._rng = np.random.default_rng(self.seed)
         self._centre = np.array(self.image_size, float) / 2.0
         self._patch_key = None
+        self._errors: ErrorModel | None = None
 
     def _patch(self, centre: np.ndarray):
         """Per-marker patch weight, radial and tangential unit fields for a contact centre."""
@@ -81,16 +87,25 @@ class SensorModel:
         """Render one `TactileState` from the loads on this fingertip."""
         weight, radial, tangential = self._patch(self._centre if contact.centre is None else contact.centre)
         n = len(self.origin)
-        noise = self._rng.normal(0.0, self.noise_px, (n, 3)) if self.noise_px else np.zeros((n, 3))
-        position = self.origin + noise[:, :2]
+        errors = self._error_model() if self.pipeline_errors else None
+        noise = self._rng.normal(0.0, self.noise_px, (n, 3)) if self.noise_px and not errors else None
+        position = self.origin + noise[:, :2] if noise is not None else self.origin.copy()
         position += weight * (self.shear_gain * np.asarray(contact.shear, float))
         if contact.normal:
             position += (self.normal_gain * contact.normal) * radial
         if contact.torque:
             position += (self.torque_gain * contact.torque) * tangential
         size = self._origin_size + self.size_gain * max(contact.normal, 0.0) * weight[:, 0]
-        size += 0.5 * noise[:, 2]
-        markers = MarkerField(self.origin, position, self._origin_size, size, self._valid,
-                              self.image_size)
+        obj, slip, valid = contact.obj, contact.slip, self._valid
+        if errors is not None:
+            position, size, valid, obj, slip = errors.apply(contact, position, size)
+        elif noise is not None:
+            size += 0.5 * noise[:, 2]
+        markers = MarkerField(self.origin, position, self._origin_size, size, valid, self.image_size)
         force, torque = wrench(markers, self.finger, self.normal_mode)
-        return TactileState(self.finger, stamp, markers, force, torque, contact.obj, contact.slip)
+        return TactileState(self.finger, stamp, markers, force, torque, obj, slip)
+
+    def _error_model(self) -> ErrorModel:
+        if self._errors is None:
+            self._errors = ErrorModel(PipelineErrors(), self._rng)
+        return self._errors

@@ -30,11 +30,11 @@ from drivers.sim.models.fingervision_model import FingerContact, SensorModel
 from drivers.sim.models.marker_patches import MarkerPainter, MarkerPatches
 from drivers.sim.models.noise_bank import NoiseBank
 from drivers.sim.models.object_layer import ObjectLayer, ObjectPatch, Placement, object_info_from_mask
+from drivers.sim.models.pipeline_errors import SLIP_PX_PER_UNIT
 from perception.state import FINGERS, ObjectInfo, TactileState
 
 HOUSING_GREY = 50.0
 SKIN_BGR = (120.0, 150.0, 205.0)
-SLIP_PX_PER_UNIT = 4.0  # rendered object speed (px/frame) per unit of the contact model's slip
 TOLERANCE_PX = 0.01  # a marker or object edge moving less than this keeps the last drawing
 
 

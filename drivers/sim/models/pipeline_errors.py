@@ -1,0 +1,147 @@
+"""What the real FingerVision pipeline gets wrong, as a compact seeded error model that signals
+mode applies to the contact model's exact values, so a skill tuned in signals mode meets the
+errors it will meet in pixel mode and on a real sensor.
+
+Measured in pixel mode against the scene's truth by `assembly/bench/perception/errors.py` (hold,
+in_hand_rot, object_track and the first assembly element, both fingers, 7354 ticks; the defaults
+below are its fitted model, `pipeline_errors.json` in its output). Re-run it after a change to
+`perception/` and copy the new figures here. The model:
+- markers: first-order lag `lag_alpha` (the Kalman filter), white noise `noise_px`; the losses
+  are concentrated on a few markers (texture or the object's edge over them): a share
+  `lossy_share` of them, fixed per sensor, is lost on a tick with probability `lossy_rate` (not
+  valid; it keeps its last estimate, as in the filter);
+- object: missed on a tick with probability `object_miss`; area scaled by `area_scale` (the
+  proximity mask sees less than the whole object) with noise `area_noise`; centroid noise
+  `centroid_px` (px, 2-D rms) and orientation noise `angle_rad`;
+- slip: MOG2 reports image motion over the object, not slip alone, so the reported slip is
+  `slip_gain * area * min(motion, slip_saturation)` (motion: px/frame of the object's texture,
+  edge, turn and of the markers over it; see `image_motion`), `slip_delay` ticks late, times
+  (1 + `slip_noise` * N(0, 1)), plus a floor drawn as `slip_floor` * Exp(1).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from perception.state import ObjectInfo
+
+IMAGE_SCALE = 280.0  # px per unit of normalised centroid ((W + H) / 2 of the 320x240 image)
+IMAGE_PIXELS = 320 * 240
+SLIP_PX_PER_UNIT = 4.0  # rendered object texture speed (px/frame) per unit of the contact model's slip
+
+
+@dataclass(frozen=True)
+class PipelineErrors:
+    """Parameters of the error model (defaults: measured, see the module docstring)."""
+
+    noise_px: float = 0.038  # px
+    lag_alpha: float = 1.0  # measured 0.975: the gated Kalman filter restarts on a real move (no lag modelled)
+    lossy_share: float = 0.105  # share of markers the tracker often loses (texture or the object's edge on them)
+    lossy_rate: float = 0.37  # how often one of those is lost on a tick
+    object_miss: float = 0.0
+    area_scale: float = 0.67
+    area_noise: float = 0.0043  # share of the image
+    centroid_px: float = 1.14
+    angle_rad: float = 0.016
+    slip_gain: float = 0.43  # slip per (area share * px/frame)
+    slip_saturation: float = 1.0  # px/frame
+    slip_floor: float = 0.0016
+    slip_noise: float = 0.83  # relative
+    slip_delay: int = 0  # ticks
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+def object_radius(area: float) -> float:
+    """px radius of a disc covering `area` (share) of the image."""
+    return float(np.sqrt(max(area, 0.0) * IMAGE_PIXELS / np.pi))
+
+
+def image_motion(prev, contact, prev_markers: np.ndarray, markers: np.ndarray) -> float:
+    """px/frame the object shows moving between two FingerContacts: its texture sliding (slip),
+    its centroid, its turn (at half its radius), its edge growing or shrinking, and the markers
+    moving over it (mean)."""
+    obj, last = contact.obj, prev.obj
+    motion = SLIP_PX_PER_UNIT * contact.slip + float(np.abs(markers - prev_markers).sum()) / markers.size
+    if obj.present and last.present:
+        motion += math.hypot(*(obj.centroid - last.centroid)) * IMAGE_SCALE
+        motion += abs(obj.orientation - last.orientation) * 0.5 * object_radius(obj.area)
+        motion += abs(object_radius(obj.area) - object_radius(last.area))
+    elif obj.present != last.present:
+        motion += object_radius(max(obj.area, last.area))
+    return motion
+
+
+BLOCK = 256  # ticks of random numbers drawn at once: one generator call per block, not several a tick
+
+
+class ErrorModel:
+    """The error model of one sensor, with its state (last markers, delayed slip, last view)."""
+
+    def __init__(self, errors: PipelineErrors, rng: np.random.Generator):
+        self.e, self._rng = errors, rng
+        self._position: np.ndarray | None = None
+        self._size: np.ndarray | None = None
+        self._truth: np.ndarray | None = None
+        self._contact = None
+        self._slip: deque[float] = deque([0.0] * errors.slip_delay, maxlen=errors.slip_delay + 1)
+        self._tick = BLOCK
+
+    def apply(self, contact, position: np.ndarray, size: np.ndarray):
+        """(positions, sizes, valid, object, slip) the pipeline would report for this contact and
+        these exact marker positions and sizes."""
+        if self._position is None:
+            self._start(position, size)
+        if self._tick == BLOCK:
+            n, k = len(position), len(self._lossy)
+            self._normal = self._rng.standard_normal((BLOCK, 3 * n + 5))
+            self._uniform = self._rng.random((BLOCK, k + 2))
+            self._tick = 0
+        normal, uniform = self._normal[self._tick], self._uniform[self._tick]
+        self._tick += 1
+        obj, slip = self._view(contact, position, normal[-5:], uniform[-2:])
+        return (*self._markers(position, size, normal[:-5], uniform[:-2]), obj, slip)
+
+    def _start(self, position: np.ndarray, size: np.ndarray) -> None:
+        self._lossy = np.flatnonzero(self._rng.random(len(position)) < self.e.lossy_share)  # fixed per sensor
+        self._position, self._size, self._all = position, size, np.ones(len(position), bool)
+
+    def _markers(self, position: np.ndarray, size: np.ndarray, normal: np.ndarray, uniform: np.ndarray):
+        """Filtered, noisy marker positions and sizes, and which were tracked; lost markers keep
+        their last estimate."""
+        e = self.e
+        lost = self._lossy[uniform < e.lossy_rate]
+        if e.lag_alpha < 1.0:
+            position = self._position + e.lag_alpha * (position - self._position)
+            size = self._size + e.lag_alpha * (size - self._size)
+        valid = self._all
+        if lost.size:
+            position, size, valid = position.copy(), size.copy(), self._all.copy()
+            position[lost], size[lost], valid[lost] = self._position[lost], self._size[lost], False
+        self._position, self._size = position, size
+        noise = e.noise_px * normal.reshape(-1, 3)
+        return position + noise[:, :2], size + 0.5 * noise[:, 2], valid
+
+    def _view(self, contact, truth_markers: np.ndarray, z: np.ndarray, u: np.ndarray) -> tuple[ObjectInfo, float]:
+        """The object and the slip the pipeline would report (z: five normals, u: two uniforms)."""
+        e = self.e
+        last, self._contact = self._contact, contact
+        prev_markers, self._truth = self._truth, truth_markers
+        motion = 0.0 if last is None else image_motion(last, contact, prev_markers, truth_markers)
+        obj = contact.obj
+        area = obj.area if obj.present else 0.0
+        self._slip.append(e.slip_gain * area * min(motion, e.slip_saturation))
+        expected = self._slip.popleft()
+        floor = -e.slip_floor * math.log1p(-u[0])  # slip_floor * Exp(1)
+        slip = max(0.0, expected * (1.0 + e.slip_noise * z[0])) + floor
+        if not obj.present or obj.area <= 0.0 or u[1] < e.object_miss:
+            return ObjectInfo(), slip
+        centroid = obj.centroid + z[2:4] * (e.centroid_px / math.sqrt(2.0) / IMAGE_SCALE)
+        seen = ObjectInfo(True, max(e.area_scale * obj.area + e.area_noise * z[1], 1e-4), centroid,
+                          obj.orientation + e.angle_rad * z[4], obj.cells, obj.motion_cells)
+        return seen, slip
