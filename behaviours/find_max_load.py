@@ -53,7 +53,7 @@ class FindMaxLoad(ProgramSkill):
                            "seen object area (0: take the slip as it comes)", 0.65, min=0.0),
         "flow_saturation": Param("float", "marker motion beyond which the slip it lights up grows no more", 1.0,
                                  "px", min=0.0),
-        "min_top_width": Param("float", "least width of the profile's top (within 3 % of the peak), as a share of "
+        "min_top_width": Param("float", "least width of the profile's top (within 3 % of the peak, or 5 sigma of the smoothed noise), as a share of "
                                "the scan: a plate's load changes smoothly, so a sharper peak means the grip gave way",
                                0.08, min=0.0, max=1.0),
         "min_clarity": Param("float", "least peak prominence, in units of the load noise, of a trusted maximum",
@@ -156,10 +156,13 @@ class FindMaxLoad(ProgramSkill):
             return None, stopped or "the scan ended at once", slipping
         peak = locate_peak(positions, loads, self.p.smoothing, self.p.fit_half_width)
         sharp = not slipping and peak.clarity >= self.p.min_clarity and peak.top_share < self.p.min_top_width
+        # A plate only pushes: a profile that falls below its start by more than its peak measured a
+        # grip that shifted under the element's weight, not the plate.
+        drifted = not slipping and float(peak.smoothed.min()) < -abs(peak.load)
         self.write(keys.LOAD_PROFILE, {
             "plate": element["plate"], "position": np.array(positions), "load": np.array(loads),
             "smoothed": peak.smoothed, "best_position": peak.position, "best_load": peak.load,
-            "clarity": peak.clarity, "top_share": peak.top_share, "grip_slipped": slipping or sharp})
+            "clarity": peak.clarity, "top_share": peak.top_share, "grip_slipped": slipping or sharp or drifted})
         if slipping:
             return peak, stopped, True
         if peak.load < self.p.min_load:
@@ -172,6 +175,9 @@ class FindMaxLoad(ProgramSkill):
             return peak, (f"the element slipped in the grip at {peak.sample_position:.3f} m along the plate: the load "
                           f"peaked there more sharply than a plate can (top {peak.top_share:.0%} of the scan wide, "
                           f"min_top_width {self.p.min_top_width:.0%})"), True
+        if drifted:
+            return peak, (f"the element shifted in the grip during the scan: the load fell to "
+                          f"{peak.smoothed.min():.2f} px, below its start by more than its peak {peak.load:.2f} px"), True
         return peak, None, False
 
     def regrasp(self, outside: np.ndarray, attempt: int):

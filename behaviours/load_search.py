@@ -10,7 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-TOP = 0.03  # the top of a profile: within 3 % of its smoothed maximum
+TOP = 0.03  # the top of a profile: within 3 % of its smoothed maximum ...
+TOP_NOISE = 5.0  # ... or within 5 standard deviations of the smoothed profile's noise, if wider
 
 
 @dataclass(frozen=True)
@@ -22,7 +23,7 @@ class PeakEstimate:
     coefficients: np.ndarray | None  # quadratic a x^2 + b x + c around the peak, if concave
     noise: float  # std of the samples about the smoothed profile
     prominence: float  # smoothed peak above the higher of the lowest points on either side
-    top_share: float  # share of the scan around the peak where the smoothed load is within TOP of it
+    top_share: float  # share of the scan around the peak where the smoothed load is within the top band
 
     @property
     def clarity(self) -> float:
@@ -56,7 +57,8 @@ def locate_peak(x, y, smooth_window: float, fit_half_width: float) -> PeakEstima
     i = int(np.argmax(smoothed))
     noise = float(np.std(y - smoothed))
     prominence = float(smoothed[i] - max(smoothed[: i + 1].min(), smoothed[i:].min()))
-    top_share = _top_width(x, smoothed, i) / max(x[-1] - x[0], 1e-12)
+    band = max(TOP * abs(smoothed[i]), TOP_NOISE * noise / np.sqrt(n))  # a faint profile's top is its noise
+    top_share = _top_width(x, smoothed, i, band) / max(x[-1] - x[0], 1e-12)
     near = np.abs(x - x[i]) <= fit_half_width
     if near.sum() >= 5:
         coeffs = np.polyfit(x[near] - x[i], y[near], 2)
@@ -69,9 +71,9 @@ def locate_peak(x, y, smooth_window: float, fit_half_width: float) -> PeakEstima
     return PeakEstimate(float(x[i]), float(smoothed[i]), float(x[i]), smoothed, None, noise, prominence, top_share)
 
 
-def _top_width(x: np.ndarray, smoothed: np.ndarray, i: int) -> float:
-    """Width (x units) of the run of samples around the best one `i` within TOP of its load."""
-    high = smoothed >= smoothed[i] - TOP * abs(smoothed[i])
+def _top_width(x: np.ndarray, smoothed: np.ndarray, i: int, band: float) -> float:
+    """Width (x units) of the run of samples around the best one `i` within `band` of its load."""
+    high = smoothed >= smoothed[i] - band
     lo = hi = i
     while lo > 0 and high[lo - 1]:
         lo -= 1

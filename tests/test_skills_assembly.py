@@ -295,6 +295,47 @@ def test_find_max_load_takes_a_peak_sharper_than_a_plate_for_a_grip_that_gave_wa
     assert h.blackboard("/task/best_pose") is None
 
 
+def scaled_plate(h, rng, peak: float, noise: float, drift: float = 0.0):
+    """The P1 load profile of `scripted_plate` scaled to `peak`, with `noise`, and a grip that lets
+    the reading fall `drift` per metre scanned (an element shifting under its weight)."""
+    x0 = PLATES["P1"]["origin"][0]
+    start = [None]
+
+    def script(tick, t):
+        a = h.arm.pose()[0] - x0
+        under = abs(h.arm.pose()[1] - PLATES["P1"]["origin"][1]) < 0.1
+        load = max(0.0, peak * (1 - ((a - 0.57) / 0.35) ** 2)) if under else 0.0
+        if under and start[0] is None:
+            start[0] = a
+        shift = drift * (a - start[0]) if under else 0.0
+        return axial(load - shift + rng.normal(0, noise))
+    return script
+
+
+def test_find_max_load_takes_a_faint_plate_profile_for_a_plate_not_a_slip():
+    """A lightly loaded plate: a peak of 8 N (about 1.6 px) under 1 N of noise, whose top within 3 % of the
+    peak is as narrow as the noise makes it; the top band widens to the smoothed noise."""
+    h = one_skill("find_max_load", "{speed: 0.05, max_regrasps: 0}")
+    h.set("/task/element", E1)
+    h.set("/task/plates", PLATES)
+    h.script(scaled_plate(h, np.random.default_rng(3), peak=8.0, noise=1.0))
+    assert h.run_until_done(4000).name == "SUCCESS", h.feedback("s")
+    profile = h.blackboard("/task/load_profile")
+    assert not profile["grip_slipped"] and profile["top_share"] > 0.08
+    assert abs(profile["best_position"] - 0.57) < 0.03
+
+
+def test_find_max_load_takes_a_profile_falling_below_its_start_for_a_shifting_grip():
+    h = one_skill("find_max_load", "{speed: 0.05, max_regrasps: 0}")
+    h.set("/task/element", E1)
+    h.set("/task/plates", PLATES)
+    h.script(scaled_plate(h, np.random.default_rng(4), peak=10.0, noise=0.3, drift=18.0))
+    assert h.run_until_done(4000).name == "FAILURE"
+    assert "the element shifted in the grip during the scan: the load fell to" in h.feedback("s")
+    assert h.blackboard("/task/load_profile")["grip_slipped"]
+    assert h.blackboard("/task/best_pose") is None
+
+
 def test_find_max_load_does_not_trust_a_peak_at_the_end_of_the_scan():
     h = one_skill("find_max_load", "{speed: 0.05, max_regrasps: 0}")
     h.set("/task/element", E1)
