@@ -100,14 +100,14 @@ def test_reports_under_a_wrong_lease_and_malformed_requests_are_refused(mqtt_bro
     probe = LinkTransport(mqtt_broker.url, "test-probe")
     probe.listen("fvtree/design/six_bays/cells/X", lambda p: answers.append(json.loads(p)))
     probe.listen("fvtree/design/six_bays/errors", lambda p: answers.append(json.loads(p)))
-    wait_for(lambda: probe._is_connected, 30, "the probe to connect")
+    wait_for(lambda: probe._is_connected, 120, "the probe to connect")
     time.sleep(0.3)
     claims = "fvtree/design/six_bays/claims"
     probe.send(claims, {"op": "claim", "cell": "X", "request": "r1"})
-    grant = wait_for(lambda: next((a for a in answers if a.get("request") == "r1"), None), 30, "the grant")
+    grant = wait_for(lambda: next((a for a in answers if a.get("request") == "r1"), None), 120, "the grant")
     assert grant["element"] == "E1"
     probe.send(claims, {"op": "claim", "cell": "Y", "request": "r2"})  # E1 is taken: Y gets E2
-    wait_for(lambda: any(e["what"] == "granted" and e["cell"] == "Y" for e in coordinator.log), 30, "Y's grant")
+    wait_for(lambda: any(e["what"] == "granted" and e["cell"] == "Y" for e in coordinator.log), 120, "Y's grant")
     assert coordinator.claims["E2"].cell == "Y"
     probe.send(claims, {"op": "placed", "cell": "X", "request": "r3", "element": "E1", "lease": "forged",
                         "pose": [0, 0, 0, 0, 0, 0]})
@@ -116,11 +116,11 @@ def test_reports_under_a_wrong_lease_and_malformed_requests_are_refused(mqtt_bro
     probe.client.publish(claims, b"{not json", qos=1)
     probe.send(claims, {"op": "steal", "cell": "X"})
     probe.send(claims, {"op": "claim", "cell": "a/b"})
-    wait_for(lambda: len(answers) >= 6, 30, "every answer")  # X: grant, 2 refusals; 3 errors
+    wait_for(lambda: len(answers) >= 6, 120, "every answer")  # X: grant, 2 refusals; 3 errors
     by_request = {a.get("request"): a for a in answers if a.get("request")}
     assert "not claimed by X under this lease" in by_request["r3"]["refused"]
     assert "E2 is not claimed by X" in by_request["r4"]["refused"]
-    errors = [a["error"] for a in answers if "error" in a]
+    errors = list(dict.fromkeys(a["error"] for a in answers if "error" in a))  # QoS 1: at least once
     assert len(errors) == 3 and "not JSON" in errors[0] and "'op' one of" in errors[1] and "'a/b'" in errors[2]
     assert not any(coordinator.model.is_placed(e) for e in ("E1", "E2"))
     probe.close()

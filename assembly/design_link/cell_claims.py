@@ -35,6 +35,7 @@ class ClaimClient:
         self._request: str | None = None
         self._asked = 0.0
         self._plan: bytes | None = None  # the coordinator's latest plan, not yet applied
+        self._heard = False  # whether the coordinator has answered this cell yet
         self._stop = threading.Event()
         self.refusals: list[str] = []
         transport.listen(self.topics.replies(cell), self._reply)
@@ -69,6 +70,7 @@ class ClaimClient:
         except ValueError:
             log.warning("unreadable answer from the coordinator: %r", payload[:80])
             return
+        self._heard = True
         if answer.get("op") == "claim":
             self._answer = answer
         elif answer.get("refused"):
@@ -101,7 +103,11 @@ class ClaimClient:
 
     def apply_pending(self, model: DesignModel) -> list[str]:
         """Stand in the model what the coordinator's latest plan shows placed and the model does
-        not: by other cells, or by this cell before a restart. Read as plain data (frames only)."""
+        not: by other cells, or by this cell before a restart. Read as plain data (frames only).
+        Not before the coordinator has answered: a plan the broker retained may be an earlier
+        coordinator's (all placed), and would end this cell's build before it began."""
+        if not self._heard:
+            return []
         payload, self._plan = self._plan, None
         if payload is None:
             return []

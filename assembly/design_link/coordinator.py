@@ -75,7 +75,10 @@ class Coordinator:
         return self
 
     def serve(self, until_done: bool = False) -> None:
-        """Take requests one at a time until stopped (or, with `until_done`, every element is placed)."""
+        """Take requests one at a time until stopped (or, with `until_done`, every element is placed).
+        The plan is published first (and again on every reconnect): the broker may still retain an
+        earlier coordinator's, which cells must not build from."""
+        self.publish()
         while True:
             try:
                 payload = self._inbox.get(timeout=0.2)
