@@ -8,9 +8,10 @@ accuracy targets). Any key left out of a YAML file keeps the dataclass default b
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal, Mapping
+from typing import Any, Literal
 
 from perception.errors import FvtreeError, did_you_mean
 from perception.yaml_source import SourceError, load_file
@@ -47,6 +48,7 @@ class DetectorConfig:
     min_dist_between: float = 10.0
     min_repeatability: int = 2
     blob_thresholds: tuple[float, float, float] = (5.0, 200.0, 10.0)  # min, max, step
+    split: bool = False  # cc: open rejected components with a marker-sized disc to free merged markers
 
 
 @dataclass(frozen=True)
@@ -61,9 +63,11 @@ class TrackerConfig:
     nonzero_range: tuple[float, float] = (0.3, 3.0)  # NonZeroMin/Max of the ROI mask fill
     window: float = 0.0  # window tracker: half side in px; 0 = marker radius + 3
     min_contrast: float = 20.0  # window tracker: grey levels between background and marker core
-    area_range: tuple[float, float] = (0.5, 1.6)  # window tracker: dark area over calibrated area
-    consistency: float = 0.0  # px; flag markers whose displacement leaves their neighbours' (0 = off)
-    neighbours: int = 4  # neighbours used by the consistency check
+    area_range: tuple[float, float] = (0.5, 1.6)  # window tracker: dark area over the last tracked size's
+    max_ring_dark: float = 1.0  # window tracker: largest dark share of the ring around a marker (1 = off)
+    consistency: float = 0.0  # px; flag markers off their neighbours' local deformation (0 = off)
+    neighbours: int = 6  # neighbours used by the consistency check and to re-find lost markers
+    lost: Literal["origin", "neighbours"] = "neighbours"  # where a lost marker is searched (original: origin)
 
 
 @dataclass(frozen=True)
@@ -72,8 +76,10 @@ class CalibrationConfig:
 
     n_frames: int = 10  # NCalibPoints
     max_drift: float = 0.8  # DistMaxCalib, px
-    max_size_drift: float = 0.5  # DSMaxCalib, px
+    max_size_drift: float = 1.0  # DSMaxCalib, px of diameter (0.5 of OpenCV 2.4's radius-sized keypoints)
     origin: Literal["first", "mean"] = "mean"  # original: the first frame's detection
+    min_tracked: float = 0.5  # share of frames a marker must be tracked in (original: 0, drift only)
+    max_ring: float = 1.0  # largest dark share of the ring around a kept marker (window tracker; 1 = any)
 
 
 @dataclass(frozen=True)
@@ -85,6 +91,7 @@ class KalmanConfig:
     measurement_noise: float = 0.1
     initial_cov: float = 0.1
     reinit_gate: float = 0.0  # chi-square (2 dof) of the innovation that restarts a marker; 0 = off
+    motion_gate: float = 0.0  # chi-square (2 dof) of a neighbourhood's mean innovation that restarts it; 0 = off
 
 
 @dataclass(frozen=True)
@@ -157,7 +164,7 @@ class FingerVisionConfig:
     slip: SlipConfig = field(default_factory=SlipConfig)
     health: HealthConfig = field(default_factory=HealthConfig)
 
-    def with_overrides(self, overrides: Mapping[str, Any]) -> "FingerVisionConfig":
+    def with_overrides(self, overrides: Mapping[str, Any]) -> FingerVisionConfig:
         """A copy with dotted keys replaced, e.g. {"kalman.enabled": False}."""
         data = dataclasses.asdict(self)
         for key, value in overrides.items():

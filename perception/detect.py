@@ -27,7 +27,7 @@ class Blobs:
         return len(self.size)
 
     @staticmethod
-    def empty() -> "Blobs":
+    def empty() -> Blobs:
         return Blobs(np.zeros((0, 2)), np.zeros(0))
 
 
@@ -69,26 +69,44 @@ class ComponentDetector:
         """Blobs in the frame or in roi = (x0, y0, x1, y1), in full-frame coordinates."""
         x0, y0, x1, y1 = roi if roi is not None else (0, 0, prep.mask.shape[1], prep.mask.shape[0])
         mask = prep.mask[y0:y1, x0:x1]
+        weight = prep.weight[y0:y1, x0:x1]
+        blobs, rejected = self._components(mask, weight)
+        if self.cfg.split and rejected is not None and len(blobs):
+            # A marker merged with a dark edge or a neighbour: opening the rejected components with a
+            # disc a little smaller than a marker removes the thinner parts and frees the marker.
+            d = max(3, int(0.75 * float(np.median(blobs.size))) | 1)
+            opened = cv2.morphologyEx(rejected, cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (d, d)))
+            freed, _ = self._components(opened, weight)
+            blobs = Blobs(np.concatenate([blobs.xy, freed.xy]), np.concatenate([blobs.size, freed.size]))
+        return Blobs(blobs.xy + (x0, y0), blobs.size)
+
+    def _components(self, mask: np.ndarray, weight: np.ndarray) -> tuple[Blobs, np.ndarray | None]:
+        """Marker-like components of `mask` (region coordinates), and a mask of the rejected ones."""
         n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8, ltype=cv2.CV_32S)
         if n <= 1:
-            return Blobs.empty()
+            return Blobs.empty(), None
         area = stats[:, cv2.CC_STAT_AREA].astype(float)
         bw, bh = stats[:, cv2.CC_STAT_WIDTH], stats[:, cv2.CC_STAT_HEIGHT]
         fill = area / np.maximum(bw * bh, 1)
         aspect = np.maximum(bw, bh) / np.maximum(np.minimum(bw, bh), 1)
         keep = (area >= self.cfg.min_area) & (area <= self.cfg.max_area) & (fill >= 0.45) & (aspect <= 2.5)
         keep[0] = False  # label 0 is the background
+        rejected = None
+        if self.cfg.split:
+            big = ~keep & (area > self.cfg.min_area)
+            big[0] = False
+            rejected = (big[labels]).view(np.uint8) * np.uint8(255) if big.any() else None
         if not keep.any():
-            return Blobs.empty()
+            return Blobs.empty(), rejected
         ys, xs = np.nonzero(mask)
         lab = labels[ys, xs]
-        w = prep.weight[y0:y1, x0:x1][ys, xs].astype(float) + 1e-3  # never an all-zero blob
+        w = weight[ys, xs].astype(float) + 1e-3  # never an all-zero blob
         sw = np.bincount(lab, w, minlength=n)
         sw[0] = 1.0  # the background label has no mask pixels
         cx = np.bincount(lab, w * xs, minlength=n) / sw
         cy = np.bincount(lab, w * ys, minlength=n) / sw
-        xy = np.column_stack([cx[keep] + x0, cy[keep] + y0])
-        return Blobs(xy, 2.0 * np.sqrt(area[keep] / np.pi))
+        xy = np.column_stack([cx[keep], cy[keep]])
+        return Blobs(xy, 2.0 * np.sqrt(area[keep] / np.pi)), rejected
 
 
 class BlobDetector:

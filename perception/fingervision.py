@@ -8,8 +8,8 @@ with no contact (marker map and background), or load a saved marker map.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import cv2
 import numpy as np
@@ -20,7 +20,7 @@ from perception.detect import make_detector
 from perception.errors import FvtreeError
 from perception.frames import FrameError, ImageQuality, as_bgr
 from perception.kalman import MarkerKalman
-from perception.marker_tracking import make_tracker
+from perception.marker_tracking import make_tracker, neighbour_index
 from perception.proximity import ProximityVision
 from perception.slip import make_motion, object_slip
 from perception.state import FINGERS, MarkerField, ObjectInfo, TactileState
@@ -42,7 +42,8 @@ class FingerVision:
         self.marker_map: MarkerMap | None = None
         self.proximity = ProximityVision(self.config.proximity)
         self._motion = make_motion(self.config.slip) if self.config.proximity.enabled else None
-        self._quality = ImageQuality(self.config.health)
+        # A washed-out image is a warning, not a blank: markers stay dark and are judged one by one.
+        self._quality = ImageQuality(dataclasses.replace(self.config.health, saturated_share=1.0))
         self._last: MarkerField | None = None
 
     @property
@@ -65,8 +66,9 @@ class FingerVision:
         c = self.config
         self.marker_map = marker_map
         self._tracker = make_tracker(c.tracker, c.threshold, make_detector(c.detector),
-                                     marker_map.origin, marker_map.size)
-        self._kalman = (MarkerKalman(c.kalman, 1.0 / c.camera_fps, marker_map.origin, marker_map.size)
+                                     marker_map.origin, marker_map.size, marker_map.ring)
+        self._kalman = (MarkerKalman(c.kalman, 1.0 / c.camera_fps, marker_map.origin, marker_map.size,
+                                     neighbour_index(marker_map.origin, c.tracker.neighbours))
                         if c.kalman.enabled else None)
         self._quality.reset()
         if self._motion is not None:
@@ -91,6 +93,7 @@ class FingerVision:
         problem = self._quality.problem(grey)
         if problem:
             return self._unhealthy(stamp, problem)
+        warning = self._washed_out(grey)
         track = self._tracker.step(bgr, grey)
         position, size = track.position, track.size
         if self._kalman is not None:
@@ -108,7 +111,16 @@ class FingerVision:
         reason = "" if healthy else (f"only {tracked:.0%} of markers tracked "
                                      f"(< {self.config.health.min_tracked:.0%}); contact occluding "
                                      f"the skin, lighting changed, or recalibration needed")
+        reason = "; ".join(r for r in (reason, warning) if r)  # on a healthy state: a warning
         return TactileState(self.finger, stamp, markers, force, torque, obj, slip, healthy, reason)
+
+    def _washed_out(self, grey: np.ndarray) -> str:
+        """A warning when much of the image is saturated (markers are still tracked one by one)."""
+        sample = grey[::4, ::4]
+        saturated = float(np.count_nonzero(sample >= 250)) / sample.size
+        if saturated <= self.config.health.saturated_share:
+            return ""
+        return f"image washed out ({saturated:.0%} of pixels saturated); reduce exposure or glare"
 
     def _proximity(self, bgr: np.ndarray) -> tuple[ObjectInfo, float]:
         if not self.config.proximity.enabled:

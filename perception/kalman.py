@@ -10,7 +10,9 @@ Because A is block diagonal and Q, R, P0 are multiples of I, the x and y blocks 
 covariance per marker and the size one scalar, so the filter is exact with per-marker arrays of
 three plus one numbers. Markers without a measurement keep their estimate (no extrapolation) while
 their covariance grows. Optional: an innovation gate (chi-square, 2 dof) that restarts a marker at
-its measurement, so a real step is followed at once instead of being smoothed away.
+its measurement, so a real step is followed at once instead of being smoothed away; and a motion
+gate on each marker's neighbourhood (given as neighbour indices), so that smooth motion, too small
+per marker to pass the innovation gate, is followed instead of lagged.
 """
 
 from __future__ import annotations
@@ -23,10 +25,16 @@ from perception.config import KalmanConfig
 class MarkerKalman:
     """Vectorised per-marker Kalman filter; `update` filters one frame of measurements."""
 
-    def __init__(self, cfg: KalmanConfig, dt: float, position: np.ndarray, size: np.ndarray):
+    def __init__(self, cfg: KalmanConfig, dt: float, position: np.ndarray, size: np.ndarray,
+                 neighbours: np.ndarray | None = None):
         if dt <= 0:
             raise ValueError(f"Kalman time step must be positive, got {dt}")
         self.cfg, self.dt = cfg, float(dt)
+        # The motion test's neighbourhoods (each marker and its neighbours) as a 0/1 matrix.
+        self._hood = None
+        if neighbours is not None:
+            self._hood = np.eye(len(size))
+            self._hood[np.arange(len(size))[:, None], neighbours] = 1.0
         n = len(size)
         self.pos = np.asarray(position, float).copy()  # (N, 2)  x0, y0
         self.vel = np.zeros((n, 2))  # (N, 2)  xt, yt
@@ -68,9 +76,29 @@ class MarkerKalman:
         ks = self.ps[v] / (self.ps[v] + r)
         self.size[v] += ks * (z_size[v] - self.size[v])
         self.ps[v] *= 1.0 - ks
+        jump = np.zeros(len(v), bool)
         if self.cfg.reinit_gate > 0:
-            jump = np.zeros(len(v), bool)
             jump[v] = (nu * nu).sum(axis=1) / s > self.cfg.reinit_gate
-            if jump.any():
-                self.restart(jump, z_pos, z_size)
+        if self.cfg.motion_gate > 0 and self._hood is not None:
+            jump |= self._moving(nu, v)
+        if jump.any():
+            self.restart(jump, z_pos, z_size)
         return self.pos.copy(), self.size.copy()
+
+    def _moving(self, innovation: np.ndarray, valid: np.ndarray) -> np.ndarray:
+        """(N,) markers whose neighbourhood (itself and its neighbours) moves: the mean innovation over
+        its m markers is too large for noise (m |mean|^2 / sigma^2 above `motion_gate`, chi-square with
+        2 dof). sigma is measured on this frame: the spread of each marker's innovation about its
+        neighbourhood's mean (robust median). A smooth motion of the skin shows in the mean long before
+        one marker's innovation leaves its noise, so these markers follow their measurement at once."""
+        nu = np.zeros((len(valid), 2))
+        nu[valid] = innovation
+        count = self._hood @ valid.astype(float)
+        mean = (self._hood @ nu) / np.maximum(count, 1.0)[:, None]
+        spread = ((nu - mean) ** 2).sum(axis=1)[valid]
+        if len(spread) < 3:
+            return np.zeros(len(valid), bool)
+        mid = len(spread) // 2  # the (upper) median; of chi2(2) it is 2 ln 2 sigma^2 per axis
+        sigma2 = max(float(np.partition(spread, mid)[mid]) / (2.0 * np.log(2.0)), 1e-6)
+        stat = count * (mean * mean).sum(axis=1) / sigma2
+        return valid & (count >= 3) & (stat > self.cfg.motion_gate)

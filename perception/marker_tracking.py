@@ -8,9 +8,12 @@ the size change, count failures and reset a marker to its origin after more than
           markers, so two markers never claim the same blob;
   window  vectorised over all markers: a darkness-weighted centroid in a small window with a local
           threshold (robust to lighting), measured again where a marker moved off the window
-          centre; markers that converge on one blob are flagged.
-An optional neighbour consistency check flags markers whose displacement leaves that of their
-neighbours (a swap or a marker caught on a dark background feature).
+          centre; markers that converge on one blob, and markers touched by something dark (the
+          ring around them darker than at calibration), are flagged.
+An optional consistency check flags markers whose displacement leaves the local affine deformation
+of their neighbours (a swap or a marker caught on a dark background feature), so that a firm shear
+or twist, whose neighbours differ by a smooth gradient, passes. With `lost: neighbours` a lost
+marker is searched where that deformation puts it, not reset to its origin.
 """
 
 from __future__ import annotations
@@ -29,7 +32,7 @@ _INFEASIBLE = 1e9
 
 @dataclass(frozen=True)
 class TrackResult:
-    """Tracked markers of one frame (positions of untracked markers are their last known ones)."""
+    """Tracked markers of one frame (untracked markers: their last known or predicted position)."""
 
     position: np.ndarray  # (N, 2) px
     size: np.ndarray  # (N,) px diameter
@@ -55,24 +58,53 @@ def min_spacing(origin: np.ndarray) -> float:
     return float(d.min())
 
 
-def inconsistent(displacement: np.ndarray, ok: np.ndarray, neighbours: np.ndarray,
-                 tolerance: float) -> np.ndarray:
-    """(N,) markers whose displacement differs from the median of their valid neighbours by > tolerance."""
-    k = neighbours.shape[1]
-    if k == 0:
-        return np.zeros(len(ok), bool)
-    nok = ok[neighbours]  # (N, k)
-    count = nok.sum(axis=1)
-    # Median over the valid neighbours only: invalid ones sort to the end as +inf.
-    nd = np.where(nok[:, :, None], displacement[neighbours], np.inf)
-    nd.sort(axis=1)
-    lo = np.clip((count - 1) // 2, 0, k - 1)[:, None, None]
-    hi = np.clip(count // 2, 0, k - 1)[:, None, None]
-    med = 0.5 * (np.take_along_axis(nd, lo, 1) + np.take_along_axis(nd, hi, 1))[:, 0, :]
-    enough = count >= 2  # cannot judge a marker from fewer than two neighbours
-    with np.errstate(invalid="ignore"):
-        dev = np.linalg.norm(displacement - med, axis=1)
-    return ok & enough & (dev > tolerance)
+class LocalFit:
+    """Each marker's displacement as its neighbours predict it from a local affine deformation.
+
+    d(o) = t + A (o - o_i) is fitted to the trusted neighbours of marker i by least squares (the slope
+    A pulled towards zero by `ridge`, in px per neighbour spacing) and t is the prediction: under
+    shear, torsion or a press the neighbours' displacements differ by a smooth gradient that the fit
+    follows, while a marker caught on a wrong blob leaves it. The fit of a fully trusted neighbourhood
+    is a fixed linear combination, computed once."""
+
+    def __init__(self, origin: np.ndarray, neighbours: np.ndarray, ridge: float = 0.5):
+        n, k = neighbours.shape
+        self.neighbours = neighbours
+        rel = origin[neighbours] - origin[:, None, :]  # (N, k, 2)
+        scale = max(float(np.median(np.linalg.norm(rel, axis=2))), 1e-6) if k else 1.0
+        self._x = np.concatenate([np.ones((n, k, 1)), rel / scale], axis=2)  # (N, k, 3)
+        self._prior = np.diag([1e-9, ridge, ridge])
+        m = np.einsum("nki,nkj->nij", self._x, self._x) + self._prior
+        self._coef = np.linalg.solve(m, self._x.transpose(0, 2, 1))[:, 0, :] if k else np.zeros((n, 0))
+
+    def predict(self, displacement: np.ndarray, trusted: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """((N, 2) displacement each marker's trusted neighbours predict for it, (N,) their count)."""
+        nb = self.neighbours
+        w = trusted[nb]  # (N, k)
+        count = w.sum(axis=1)
+        d = displacement[nb]  # (N, k, 2)
+        predicted = np.einsum("nk,nkd->nd", self._coef, d)
+        part = count < nb.shape[1]
+        if part.any():  # some neighbours untrusted: fit those neighbourhoods with their weights
+            x, wp = self._x[part], w[part].astype(float)[:, :, None]
+            m = np.einsum("nki,nkj->nij", x * wp, x) + self._prior
+            predicted[part] = np.linalg.solve(m, np.einsum("nki,nkd->nid", x * wp, d[part]))[:, 0, :]
+        return predicted, count
+
+
+def inconsistent(fit: LocalFit, displacement: np.ndarray, ok: np.ndarray, tolerance: float) -> np.ndarray:
+    """(N,) markers whose displacement is more than `tolerance` px from what their valid neighbours'
+    local deformation predicts (`LocalFit`). Markers flagged are left out of their neighbours' fits in
+    a second pass, so one wrong marker cannot flag good ones."""
+    flagged = np.zeros(len(ok), bool)
+    for _ in range(2):
+        predicted, count = fit.predict(displacement, ok & ~flagged)
+        dev = displacement - predicted
+        again = ok & (count >= 2) & ((dev * dev).sum(axis=1) > tolerance * tolerance)  # two neighbours at least
+        if not again.any() or np.array_equal(again, flagged):
+            return again
+        flagged = again
+    return flagged
 
 
 class MarkerTracker:
@@ -84,7 +116,7 @@ class MarkerTracker:
         self.cfg = cfg
         self.origin = np.asarray(origin, float).copy()
         self.origin_size = np.asarray(origin_size, float).copy()
-        self._neighbours = neighbour_index(self.origin, cfg.neighbours)
+        self._fit = LocalFit(self.origin, neighbour_index(self.origin, cfg.neighbours))
         self.reset()
 
     def reset(self) -> None:
@@ -92,23 +124,39 @@ class MarkerTracker:
         self.position = self.origin.copy()
         self.size = self.origin_size.copy()
         self.failures = np.zeros(len(self.origin), int)
+        self.ring = np.zeros(len(self.origin))  # dark share of the ring around each marker, last frame
 
     def step(self, bgr: np.ndarray, grey: np.ndarray) -> TrackResult:
         """Track all markers in one frame."""
         restarted = self.failures > self.cfg.n_reset
-        self.position[restarted] = self.origin[restarted]
         self.size[restarted] = self.origin_size[restarted]
+        if self.cfg.lost == "neighbours":
+            self._refind()
+        else:
+            self.position[restarted] = self.origin[restarted]
         self.failures[restarted] = 0
         xy, size, ok = self._measure(bgr, grey, self.position, self.size)
         ok &= np.linalg.norm(xy - self.position, axis=1) < self.cfg.max_jump
         ok &= np.abs(size - self.size) < self.cfg.max_size_change
         if self.cfg.consistency > 0:
-            ok &= ~inconsistent(xy - self.origin, ok, self._neighbours, self.cfg.consistency)
+            ok &= ~inconsistent(self._fit, xy - self.origin, ok, self.cfg.consistency)
         self.position[ok] = xy[ok]
         self.size[ok] = size[ok]
         self.failures[ok] = 0
         self.failures[~ok] += 1
         return TrackResult(self.position.copy(), self.size.copy(), ok, restarted)
+
+    def _refind(self) -> None:
+        """Search for each lost marker where its tracked neighbours' local deformation puts it (the
+        origin when fewer than two of them are tracked), not where it was last seen."""
+        lost = self.failures > 0
+        if not lost.any():
+            return
+        predicted, count = self._fit.predict(self.position - self.origin, ~lost)
+        known = lost & (count >= 2)
+        self.position[known] = self.origin[known] + predicted[known]
+        alone = lost & ~known & (self.failures > self.cfg.n_reset)
+        self.position[alone] = self.origin[alone]
 
     def _measure(self, bgr, grey, pred_xy, pred_size):
         raise NotImplementedError
@@ -179,19 +227,32 @@ class WindowTracker(MarkerTracker):
     """Vectorised local search: darkness-weighted centroid with a per-window threshold; markers that
     moved off their window centre are measured again around the first estimate."""
 
-    def __init__(self, cfg: TrackerConfig, origin: np.ndarray, origin_size: np.ndarray):
+    def __init__(self, cfg: TrackerConfig, origin: np.ndarray, origin_size: np.ndarray,
+                 ring_base: np.ndarray | None = None):
         super().__init__(cfg, origin, origin_size)
-        radius = float(np.median(origin_size)) / 2.0
-        self._half = int(cfg.window) if cfg.window > 0 else max(3, int(np.ceil(radius + 3)))
-        self._area0 = np.pi * (self.origin_size / 2.0) ** 2
+        # The ring's dark share at calibration (a dark edge behind the skin next to a marker): only
+        # darkness beyond it flags the marker.
+        self.ring_base = np.zeros(len(self.origin)) if ring_base is None else np.asarray(ring_base, float)
+        radius = self.origin_size / 2.0  # markers differ in size (distance to the lens, foreshortening)
+        self._half = int(cfg.window) if cfg.window > 0 else max(3, int(np.ceil(radius.max() + 3)))
         self._min_sep = 0.5 * min_spacing(self.origin)
         self._off = np.arange(-self._half, self._half + 1, dtype=np.float32)
-        # Centroid and size use only a disc a little larger than a marker, so that darker background
-        # in the window corners does not pull the centroid or count as marker area.
-        self._disc = np.hypot(self._off[:, None], self._off[None, :]) <= radius + 2.0
+        # Centroid and size use only a disc 1 px larger than each marker, so that darker background
+        # in the window corners or next to the marker does not pull the centroid or count as area.
+        dist = np.hypot(self._off[:, None], self._off[None, :])[None]
+        self._disc = dist <= (radius + 1.0)[:, None, None]
+        # The ring checked for dark contamination, 2 px wide around the window centre (within 1 px of
+        # the marker's), starts past the marker's rim, its major semi-axis included (markers near the
+        # window rim are foreshortened to ellipses) and 1 px of centring slack.
+        ring_in = np.minimum(0.65 * self.origin_size + 1.0, self._half - 2.0)[:, None, None]
+        self._ring = (dist > ring_in) & (dist <= ring_in + 2.0)
+        self._ring_size = self._ring.sum(axis=(1, 2))
 
-    def _window(self, grey: np.ndarray, centre: np.ndarray):
-        """Centroid, diameter, contrast and dark-pixel count in the window around each centre."""
+    def _window(self, grey: np.ndarray, centre: np.ndarray, which: slice | np.ndarray):
+        """Centroid, diameter, contrast, dark-pixel count and the dark share of the ring just outside
+        the marker in the window around each centre, for the markers `which`; centroid and size use
+        only each marker's disc (1 px larger than the marker)."""
+        disc = self._disc[which]
         half, size = self._half, 2 * self._half + 1
         h, w = grey.shape
         if h < size or w < size:
@@ -200,30 +261,37 @@ class WindowTracker(MarkerTracker):
         cy = np.clip(np.rint(centre[:, 1]).astype(int), half, h - 1 - half)
         p = sliding_window_view(grey, (size, size))[cy - half, cx - half]  # (N, P, P) float32
         ring = np.concatenate([p[:, 0, :], p[:, -1, :], p[:, 1:-1, 0], p[:, 1:-1, -1]], axis=1)
-        bg = np.median(ring, axis=1)  # robust to a bright or dark feature touching the window
+        m = ring.shape[1] // 2  # the border has an even number of pixels: median of the middle two
+        ring.partition((m - 1, m), axis=1)
+        bg = 0.5 * (ring[:, m - 1] + ring[:, m])  # robust to a bright or dark feature touching the window
         dark = p.min(axis=(1, 2))
-        below = np.maximum(0.5 * (bg + dark)[:, None, None] - p, 0) * self._disc  # depth below half-way
+        level = 0.5 * (bg + dark)[:, None, None]
+        below = np.maximum(level - p, 0) * disc  # depth below half-way
         inside = below > 0
         count = inside.sum(axis=(1, 2))
         core = (p * inside).sum(axis=(1, 2)) / np.maximum(count, 1)
         cover = (bg[:, None, None] - p) / np.maximum(bg - core, 1.0)[:, None, None]
-        area = np.where((cover > 0.15) & self._disc, np.minimum(cover, 1.0), 0).sum(axis=(1, 2))
+        area = np.where((cover > 0.15) & disc, np.minimum(cover, 1.0), 0).sum(axis=(1, 2))
         total = below.sum(axis=(1, 2)) + np.float32(1e-6)
         xy = np.column_stack([cx + (below.sum(axis=1) @ self._off) / total,
                               cy + (below.sum(axis=2) @ self._off) / total])
-        return xy, 2.0 * np.sqrt(area / np.pi), bg - dark, count
+        ring_dark = (self._ring[which] & (p < level)).sum(axis=(1, 2)) / self._ring_size[which]
+        return xy, 2.0 * np.sqrt(area / np.pi), bg - dark, count, ring_dark
 
     def _measure(self, bgr, grey, pred_xy, pred_size):
         g = grey.astype(np.float32)
-        xy, size, contrast, count = self._window(g, pred_xy)
+        xy, size, contrast, count, ring_dark = self._window(g, pred_xy, slice(None))
         moved = np.abs(xy - np.rint(pred_xy)).max(axis=1) > 1.0
         if moved.any():  # the marker may be cut by the window edge: measure it again where it is
-            again = self._window(g, xy[moved])
-            for full, part in zip((xy, size, contrast, count), again):
+            again = self._window(g, xy[moved], moved)
+            for full, part in zip((xy, size, contrast, count, ring_dark), again):
                 full[moved] = part
-        ratio = count / self._area0
+        ratio = count / (np.pi / 4.0 * pred_size * pred_size)  # dark pixels over the expected marker area
         lo, hi = self.cfg.area_range
         ok = (contrast >= self.cfg.min_contrast) & (ratio >= lo) & (ratio <= hi)
+        # Something dark came to touch the marker: its measurement may be biased, so it is not trusted.
+        ok &= ring_dark <= self.ring_base + self.cfg.max_ring_dark
+        self.ring = ring_dark
         if self._min_sep < np.inf and ok.sum() > 1:
             d = np.linalg.norm(xy[:, None, :] - xy[None, :, :], axis=2)
             np.fill_diagonal(d, np.inf)
@@ -233,10 +301,11 @@ class WindowTracker(MarkerTracker):
 
 
 def make_tracker(cfg: TrackerConfig, threshold: ThresholdConfig, detector: Detector,
-                 origin: np.ndarray, origin_size: np.ndarray) -> MarkerTracker:
-    """The tracker named by `cfg.kind`, started at the calibrated origins."""
+                 origin: np.ndarray, origin_size: np.ndarray, ring_base: np.ndarray | None = None) -> MarkerTracker:
+    """The tracker named by `cfg.kind`, started at the calibrated origins (`ring_base`: the window
+    tracker's calibrated dark share of each marker's ring)."""
     if cfg.kind == "roi":
         return RoiTracker(cfg, threshold, detector, origin, origin_size)
     if cfg.kind == "assign":
         return AssignTracker(cfg, threshold, detector, origin, origin_size)
-    return WindowTracker(cfg, origin, origin_size)
+    return WindowTracker(cfg, origin, origin_size, ring_base)

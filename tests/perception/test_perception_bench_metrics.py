@@ -42,3 +42,33 @@ def test_tables_are_written_as_csv_and_markdown(tmp_path):
     assert [p.name for p in paths] == ["t.csv", "t.md"]
     assert paths[0].read_text().splitlines() == ["a,b", "1,0.123456"]
     assert "| 1 | 0.1235 |" in paths[1].read_text()
+
+
+def test_stress_conditions_reach_the_failure_points_of_the_issue():
+    from assembly.bench.perception import _stress_sequences
+    conditions = {}
+    for factor, value, seq in _stress_sequences(2):
+        conditions.setdefault(factor, []).append(value)
+        assert len(seq.frames) == 2 and len(seq.calibration) == 10 and len(seq.origin) > 50
+    assert max(conditions["shear_px"]) == 25 and max(conditions["torsion_px"]) >= 20
+    assert max(conditions["textured_share"]) == max(conditions["dark_share"]) == 0.4
+    assert max(conditions["gain_bright_background"]) >= 2.0
+    assert max(conditions["blur_kernel_px"]) == 15 and max(conditions["noise_sigma"]) == 24
+
+
+def test_objects_behind_the_skin_change_the_skin_not_the_markers():
+    import cv2
+
+    from assembly.bench.perception.scenes import StressBench
+    from drivers.sim.models.synthetic_camera import Appearance
+    look = Appearance(noise=0.0)
+    plain = StressBench(4).camera.render(appearance=look)
+    for pattern, darker in (("qr", True), ("dark", True), ("bright", False)):
+        frame = StressBench(4, pattern, 0.4).camera.render(appearance=look)
+        assert frame.truth.visible.all() and np.allclose(frame.truth.position, plain.truth.position)
+        change = cv2.cvtColor(frame.image, cv2.COLOR_BGR2GRAY).astype(float) - cv2.cvtColor(
+            plain.image, cv2.COLOR_BGR2GRAY)
+        assert (change < -40).mean() > 0.05 if darker else (change > 20).mean() > 0.05
+        centres = np.rint(plain.truth.position).astype(int)
+        core = frame.image[centres[:, 1], centres[:, 0]].max(axis=1)
+        assert core.max() < 60  # every marker is still drawn black on top of the object

@@ -14,7 +14,10 @@ def test_every_shipped_preset_loads():
 def test_original_preset_keeps_the_2018_defaults():
     c = load_config("original")
     assert (c.threshold.mode, c.threshold.v_max, c.detector.kind, c.tracker.kind) == ("hsv", 42, "blob", "roi")
-    assert (c.tracker.search, c.tracker.max_jump, c.tracker.max_size_change, c.tracker.n_reset) == (30, 5.0, 1.0, 3)
+    # VSMax 1.0 and DSMaxCalib 0.5 px of OpenCV 2.4's radius-sized keypoints, as diameters.
+    assert (c.tracker.search, c.tracker.max_jump, c.tracker.max_size_change, c.tracker.n_reset) == (30, 5.0, 2.0, 3)
+    assert (c.calibration.max_drift, c.calibration.max_size_drift, c.calibration.min_tracked) == (0.8, 1.0, 0.0)
+    assert c.tracker.lost == "origin" and c.tracker.consistency == 0
     assert not c.kalman.enabled and c.slip.method == "mog2"
     assert (c.proximity.width, c.proximity.bins, c.proximity.f_gain) == (320, (50, 10, 10), 2.5)
 

@@ -1,5 +1,8 @@
 """The vectorised per-marker Kalman filter: equal to the thesis' 5-state filter, smooths static
-jitter, follows steps (with the innovation gate), holds lost markers."""
+jitter, follows steps (with the innovation gate) and smooth motion (with the motion gate), holds
+lost markers."""
+
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -75,6 +78,37 @@ def test_thesis_filter_smooths_but_lags_a_step():
     jitter, lag = jitter_and_lag(cfg.kalman, 1.0 / cfg.camera_fps)
     assert jitter > 2.0
     assert lag > 2  # without the gate a 2 px step is smoothed over several frames
+
+
+def smooth_shear(frames=120, noise=0.07, seed=2):
+    """A 7x7 marker grid (30 px pitch): still for 60 frames, then a shear growing smoothly (cosine
+    ramp, up to 0.5 px per frame and 8 px at the top row) over 40 frames, then held; measurements
+    with Gaussian noise. Returns (origin, truth, measurements)."""
+    rng = np.random.default_rng(seed)
+    origin = np.array([[x, y] for y in range(0, 210, 30) for x in range(0, 210, 30)], float) + 50.0
+    ramp = 0.5 * (1.0 - np.cos(np.pi * np.clip((np.arange(frames) - 60) / 40.0, 0.0, 1.0)))
+    shear = 8.0 * (origin[:, 1] - 50.0) / 180.0
+    truth = origin[None].repeat(frames, 0)
+    truth[:, :, 0] += ramp[:, None] * shear[None, :]
+    return origin, truth, truth + rng.normal(0.0, noise, truth.shape)
+
+
+def test_motion_gate_follows_smooth_shear_without_losing_the_static_smoothing():
+    from perception.marker_tracking import neighbour_index
+    origin, truth, z = smooth_shear()
+    cfg = load_config("fast").kalman
+    errors = {}
+    for name, gate in (("plain", 0.0), ("motion", cfg.motion_gate)):
+        kf = MarkerKalman(replace(cfg, motion_gate=gate), 1.0 / 30.0, origin, np.full(len(origin), 9.0),
+                          neighbour_index(origin, 6))
+        est = np.array([kf.update(zk, np.full(len(origin), 9.0), np.ones(len(origin), bool))[0] for zk in z])
+        errors[name] = est - truth
+    raw = z - truth
+    rms = {k: float(np.sqrt((e[60:] ** 2).sum(axis=2).mean())) for k, e in {**errors, "raw": raw}.items()}
+    assert rms["motion"] <= rms["raw"]  # no lag: no worse than no filter while the skin moves
+    assert rms["plain"] > rms["raw"]  # without the gate the filter lags the shear
+    jitter = raw[20:60].std() / errors["motion"][20:60].std()
+    assert jitter >= 3.0
 
 
 def test_unmeasured_markers_hold_their_estimate_and_trust_the_next_measurement_more():

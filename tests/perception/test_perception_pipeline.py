@@ -124,3 +124,11 @@ def test_slip_is_high_while_the_object_slides_and_low_while_it_rests(method):
         assert min(slide[2:]) > 0.1
     else:  # flow is pinned by the static markers and noisy on flat colour: only on average
         assert np.mean(slide[2:]) > 3.0 * np.mean(rest[-20:])
+
+
+def test_a_washed_out_image_keeps_its_dark_markers_and_warns(scene, fv):
+    image = scene.camera.render(appearance=scene.look).image
+    image[image.max(axis=2) > 100] = 255  # the background saturates; the black markers do not
+    state = fv.process(image, 0.0)
+    assert "washed out" in state.health_reason
+    assert state.healthy and state.markers.valid.mean() > 0.95  # judged marker by marker, not blanked

@@ -77,12 +77,12 @@ def test_calibration_scales_multiply_the_pixel_wrench():
 
 
 @pytest.mark.parametrize("bad, message", [
-    (dict(finger="middle"), "unknown finger"),
-    (dict(mode="area"), "unknown normal_mode"),
-    (dict(averaging="mode"), "unknown averaging"),
+    ({"finger": "middle"}, "unknown finger"),
+    ({"mode": "area"}, "unknown normal_mode"),
+    ({"averaging": "mode"}, "unknown averaging"),
 ])
 def test_bad_options_are_named(bad, message):
-    kwargs = dict(finger="right", mode="xy_norm", averaging="mean") | bad
+    kwargs = {"finger": "right", "mode": "xy_norm", "averaging": "mean"} | bad
     with pytest.raises(ValueError, match=message):
         wrench(field([[160, 120]], [[161, 120]]), kwargs["finger"], kwargs["mode"], kwargs["averaging"])
 

@@ -4,8 +4,8 @@ Kalman jitter and step lag, and the no-ground-truth checks used on real footage.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -28,6 +28,7 @@ class Track:
     tracked: float  # share of visible, matched markers reported valid (mean over frames)
     swaps: int  # valid markers nearer another marker's true position than their own (unflagged)
     times: np.ndarray  # s per frame
+    off: float = 0.0  # share of valid samples more than 1 px from the truth (biased, yet trusted)
 
 
 def run_sequence(fv: FingerVision, frames) -> tuple[list, np.ndarray]:
@@ -45,7 +46,7 @@ def score(fv: FingerVision, frames, truth_origin: np.ndarray) -> Track:
     idx = match_truth(fv.marker_map.origin, truth_origin)
     real = idx >= 0
     states, times = run_sequence(fv, frames)
-    sq, n, tracked, swaps = 0.0, 0, [], 0
+    sq, n, tracked, swaps, off = 0.0, 0, [], 0, 0
     for state, frame in zip(states, frames):
         truth = frame.truth
         est = state.markers.position[real]
@@ -54,12 +55,13 @@ def score(fv: FingerVision, frames, truth_origin: np.ndarray) -> Track:
         valid = state.markers.valid[real] & seen
         err = np.linalg.norm(est - own, axis=1)
         sq += float((err[valid] ** 2).sum())
+        off += int((err[valid] > 1.0).sum())
         n += int(valid.sum())
         tracked.append(valid.sum() / max(seen.sum(), 1))
         nearest = np.linalg.norm(est[:, None, :] - truth.position[None, :, :], axis=2).argmin(axis=1)
         swaps += int((valid & (nearest != idx[real])).sum())
     rms = float(np.sqrt(sq / n)) if n else float("nan")  # nan: nothing tracked at all
-    return Track(rms, float(np.mean(tracked)), swaps, times)
+    return Track(rms, float(np.mean(tracked)), swaps, times, off / max(n, 1))
 
 
 def best_threshold(score_values: np.ndarray, actual: np.ndarray) -> float:
