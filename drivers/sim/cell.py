@@ -22,9 +22,6 @@ from drivers.sim.scenes import build_world, world_settings
 
 FIELDS = {"kind", "name", "home", "safety", "supervision", "gripper", "sensor", "world", "perception"}
 PERCEPTION_MODES = ("signals", "pixels")
-# Scenes whose signals mode stays exact for now: the stir demo's classifier was trained on exact
-# signals and is being retrained with the reworked stir scene.
-EXACT_SIGNAL_SCENES = {"stir"}
 
 
 def build_sim_cell(path: Path, data: dict, request: CellRequest) -> Cell:
@@ -45,7 +42,7 @@ def build_sim_cell(path: Path, data: dict, request: CellRequest) -> Cell:
     world, sensors, sense = build_world(path, settings, arm, gripper, clock, request.scene, request.scene_args,
                                         request.seed)
     if mode == "signals":  # the pipeline's measured errors, unless the file's sensor section turns them off
-        errors = bool(settings[0].get("pipeline_errors", request.scene not in EXACT_SIGNAL_SCENES))
+        errors = bool(settings[0].get("pipeline_errors", True))
         for sensor in sensors.values():
             sensor.pipeline_errors = errors
     else:

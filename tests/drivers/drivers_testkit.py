@@ -35,7 +35,7 @@ class Emulator:
         return self.call("state")
 
 
-WALL_SLACK = 5.0  # s of wall time a loaded two-core machine may leave a thread unscheduled
+WALL_SLACK = 10.0  # s of wall time a loaded two-core machine may leave a thread unscheduled
 
 
 def tolerant_of_load(data: dict, time_scale: float = 1.0) -> dict:
