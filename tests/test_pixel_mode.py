@@ -13,9 +13,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-import yaml
 
-from assembly.design import DesignModel
+from assembly.bench.perception.recording import first_element_only
 from assembly.session import run_tree
 
 TREES = Path(__file__).resolve().parents[1] / "trees"
@@ -72,35 +71,11 @@ def _demo_trees() -> list:
             if name in FAILING_TODAY else name for name in trees]
 
 
-def _first_element_only(tree: Path, out_dir: Path) -> Path:
-    """A copy of an assembly tree that builds only the first element of its design's build order."""
-    doc = yaml.safe_load(tree.read_text())
-    design = (tree.parent / doc["design"]).resolve()
-    first = DesignModel.load(design).build_order()[0]
-    doc["design"] = str(design)
-    doc["include"] = [str((tree.parent / rel).resolve()) for rel in doc.get("include", [])]
-
-    def restrict(node) -> None:
-        if isinstance(node, dict):
-            if "for_each_element" in node:
-                node["elements"] = [first]
-            for value in node.values():
-                restrict(value)
-        elif isinstance(node, list):
-            for value in node:
-                restrict(value)
-
-    restrict(doc["root"])
-    short = out_dir / tree.name
-    short.write_text(yaml.safe_dump(doc, sort_keys=False))
-    return short
-
-
 @pytest.mark.parametrize("name", _demo_trees())
 def test_demo_tree_does_its_task_in_pixel_mode(name, tmp_path):
     tree = TREES / name
     if "for_each_element" in tree.read_text():
-        tree = _first_element_only(tree, tmp_path)
+        tree = first_element_only(tree, tmp_path)
     summary = run_tree(str(tree), perception="pixels", runs_dir=tmp_path / "runs", plots=False, quiet=True)
     assert summary["status"] == "SUCCESS", (summary["status"], summary["where"], summary["message"])
     CHECKS.get(name, lambda _: None)(summary)
