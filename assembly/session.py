@@ -7,12 +7,10 @@ from __future__ import annotations
 
 import gc
 import json
-import signal
 import sys
-import threading
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
 
 import numpy as np
 
@@ -25,7 +23,7 @@ from assembly.progress import end_stderr_progress, stderr_progress
 from assembly.report import format_summary, plot_profiles, summarize, write_summary
 from assembly.run_dir import ASBUILT_FILE, SUMMARY_FILE, find_run, new_run_dir, write_run_file
 from assembly.runner import Runner
-from assembly.stop_policy import Terminated
+from assembly.stop_policy import sigterm_raises_terminated
 from assembly.substitution import Rule, substitute
 from assembly.supervisor import Supervision
 from assembly.verdict import judge, tolerances_for
@@ -93,7 +91,7 @@ def run_tree(tree_path: str, cell: str = "sim", seed: int = 0, realtime: bool = 
         if bridge:
             bridge.event("start", tree=str(tree_path), cell=cell, seed=seed, resume=bool(resume))
         runner.setup()
-        with _frozen_heap(), _sigterm_halts():
+        with _frozen_heap(), sigterm_raises_terminated():
             result = runner.run()
     finally:
         the_cell.close()
@@ -187,24 +185,6 @@ def _frozen_heap() -> Iterator[None]:
         yield
     finally:
         gc.unfreeze()
-
-
-def _raise_terminated(signum, frame) -> None:
-    raise Terminated()
-
-
-@contextmanager
-def _sigterm_halts() -> Iterator[None]:
-    """SIGTERM raises `Terminated` (a KeyboardInterrupt) in the tick loop, which halts the run
-    like Ctrl-C; the previous handler is restored after. Signals reach the main thread only."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = signal.signal(signal.SIGTERM, _raise_terminated)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
 
 
 def _stand_placed(world, design: DesignModel, placed: list[str]) -> None:

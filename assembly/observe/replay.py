@@ -11,11 +11,9 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import signal
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -27,6 +25,7 @@ import rerun as rr
 from assembly.observe.layout import default_blueprint
 from assembly.observe.recorder import NODE_RADIUS
 from assembly.observe.tree_graph import tree_graph
+from assembly.stop_policy import sigterm_raises_terminated
 from perception.errors import FvtreeError
 
 HOST = "127.0.0.1"
@@ -185,7 +184,7 @@ def view(run_dir: Path, web: bool = True, web_port: int = WEB_PORT, grpc_port: i
         raise FvtreeError("no display for the native viewer", str(run_dir), hint="drop --native to use the web viewer")
     viewer = start_viewer(files, web_port, grpc_port, web)
     try:
-        with _sigterm_interrupts():
+        with sigterm_raises_terminated():
             say(f"viewing {', '.join(str(f) for f in files)}")
             if web:
                 say(f"open {viewer.page}  (Ctrl-C to stop)")
@@ -196,23 +195,6 @@ def view(run_dir: Path, web: bool = True, web_port: int = WEB_PORT, grpc_port: i
         viewer.stop()
         if files and files[0].parent.name.startswith("fvtree-view-"):
             shutil.rmtree(files[0].parent, ignore_errors=True)
-
-
-def _interrupt(signum, frame) -> None:
-    raise KeyboardInterrupt
-
-
-@contextmanager
-def _sigterm_interrupts() -> Iterator[None]:
-    """SIGTERM ends the wait like Ctrl-C, so the viewer server is stopped too."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = signal.signal(signal.SIGTERM, _interrupt)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
 
 
 @contextmanager
@@ -227,7 +209,7 @@ def live_view(enabled: bool, say=print) -> Iterator[Viewer | None]:
     try:
         yield viewer
         say(f"the run has ended; the live view stays at {viewer.page} until Ctrl-C")
-        with _sigterm_interrupts():
+        with sigterm_raises_terminated():
             viewer.process.wait()
     except KeyboardInterrupt:
         pass
