@@ -38,7 +38,8 @@ class MqttLink:
         self._live: dict[str, str] = {}  # element -> picking | failed, until the file records more
         self._model: DesignModel | None = None  # the model last seen, to send the plan on reconnect
         self.building: str | None = None  # the element the cell is on
-        self.transport.listen(self.topics.updates, self._inbox.put)
+        self._received: set[bytes] = set()  # payloads already queued: QoS 1 may deliver one twice
+        self.transport.listen(self.topics.updates, self._receive)
         self.transport.on("ready", self._resend_plan)
 
     # ---- out ----------------------------------------------------------------------------------
@@ -87,6 +88,12 @@ class MqttLink:
         self.transport.send(topic, {**data, "cell": self.cell, "time": time.time()})
 
     # ---- in -----------------------------------------------------------------------------------
+    def _receive(self, payload: bytes) -> None:
+        """Queue an update for the next element boundary, once: MQTT's QoS 1 delivers at least once."""
+        if payload not in self._received:
+            self._received.add(payload)
+            self._inbox.put(payload)
+
     def apply_pending(self, model: DesignModel) -> list[str]:
         """Apply the updates received since the last element boundary, in order; report each one
         refused (conflicts and errors topics) and go on. The elements added or changed."""
