@@ -22,6 +22,7 @@ BENCHES = {
     "drivers": "assembly.bench.drivers",
     "skills": "assembly.bench.skills",
     "recording": "assembly.bench.recording",
+    "demos": "assembly.bench.demos",
 }
 
 

@@ -42,3 +42,14 @@ def test_bench_perception(tmp_path):
     real = [t for t in summary if t.startswith("real footage")]
     assert len(real) == (4 if REAL_CLIP.exists() else 0)  # the footage stays outside the repo
     assert (tmp_path / "accuracy_speed.png").exists()
+
+
+def test_bench_demos(tmp_path):
+    assert main(["bench", "demos", "--quick", "--out", str(tmp_path)]) == 0
+    rows = read_csv(tmp_path / "demos.csv")
+    verdicts = {r["mode"]: r["value"] for r in rows if r["quantity"] == "verdict"}
+    assert verdicts == {"signals": "SUCCESS", "pixels": "SUCCESS"}
+    force = {r["mode"]: float(r["value"]) for r in rows if r["quantity"] == "force on the scale (N)"}
+    assert set(force) == {"signals", "pixels"} and all(abs(f - 5.0) < 1.0 for f in force.values())
+    assert "SUCCESS in signals mode: 1 of 1; in pixel mode: 1 of 1" in (tmp_path / "demos.md").read_text()
+    assert (tmp_path / "demos.png").stat().st_size > 5_000
