@@ -40,9 +40,11 @@ def run_demo(tree: Path, mode: str, runs_dir: Path) -> dict:
 
 def figures(summary: dict) -> dict:
     """The quantities a run is judged on: verdict, exit code, real-time factor, the scene's figures
-    and, for an assembly, the largest regret of its placements."""
+    and, for an assembly, the largest regret of its placements; why a run did not succeed."""
     out = {"verdict": summary.get("status"), "exit code": summary.get("exit"),
            "real-time factor": summary.get("real_time_factor")}
+    if summary.get("status") != "SUCCESS":
+        out["why"] = " ".join(str(summary.get(k) or "") for k in ("where", "message")).strip()
     out.update(summary.get("metrics", {}))
     regrets = [e.get("regret") for e in summary.get("elements", {}).values() if e.get("regret") is not None]
     if regrets:
@@ -82,7 +84,7 @@ def side_by_side(rows: list[dict]) -> dict:
 
 
 def _cell(value) -> str:
-    return f"{value:.4g}" if isinstance(value, float) else str(value)
+    return f"{value:.4g}" if isinstance(value, float) else str(value).replace("|", "\\|")
 
 
 def markdown(rows: list[dict]) -> str:
