@@ -39,6 +39,10 @@ class BeamPlate:
         y_w = self.w * x * (L**3 - 2 * L * x**2 + x**3) / (24.0 * self.EI)
         return y_w + self.P * self._unit_point(x, self.c)
 
+    def weight(self) -> float:
+        """Total load on the plate (N): an element pushing up harder lifts it off its supports."""
+        return self.w * self.span + self.P
+
     def self_flexibility(self, a) -> np.ndarray:
         a = np.asarray(a, dtype=float)
         b = self.span - a

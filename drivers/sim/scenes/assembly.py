@@ -9,11 +9,14 @@ the series compliance k), so the fingers feel it as shear.
 Elements are solid: a held element that would pass through another one is held back where it
 touched, so the hand drags it over the pads against a stiff contact (the fingers feel it, and
 the arm's force limit stops the motion); the fingers grasp only the element between them, never
-a second one while they hold the first.
+a second one while they hold the first. Plates are not solid (an element under one loads it), but a
+held element that pushes on a plate it does not prop, or lifts any plate off its supports, is a
+shortfall in the truth's verdict.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,6 +34,7 @@ from perception.state import ObjectInfo
 
 GRAVITY = 9.81
 CURVE_POINTS = 2001  # samples of the true load curve along a plate's span
+STRAY_LOAD_N = 1.0  # load from a plate an element does not prop that counts as pushing it (N)
 
 
 @dataclass
@@ -44,12 +48,20 @@ class Element:
     mass: float
     pose: np.ndarray  # centre pose [x, y, z, rx, ry, rz]
     state: str = "lying"  # lying | held | standing | dropped
+    plate: str = ""  # the plate the design has it prop ("": any)
     grasp: np.ndarray | None = None  # element pose in the tool frame while held (4x4)
     _inverse: np.ndarray | None = field(default=None, repr=False)
     _inverse_key: bytes = field(default=b"", repr=False)
+    _rotation: np.ndarray | None = field(default=None, repr=False)
+    _rotation_key: bytes = field(default=b"", repr=False)
 
     def rotation(self) -> np.ndarray:
-        return rotvec_to_matrix(self.pose[3:])
+        """Element-to-base rotation, cached while the element does not turn (do not change it)."""
+        key = self.pose[3:].tobytes()
+        if self._rotation_key != key:
+            self._rotation = rotvec_to_matrix(self.pose[3:])
+            self._rotation_key = key
+        return self._rotation
 
     def inverse(self) -> np.ndarray:
         """Base-to-element transform, cached while the element does not move."""
@@ -71,23 +83,37 @@ class Element:
     def core(self, pose: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """End points of the axis of the capsule standing in for the element (radius half its
         width, as long as the element) were its centre at `pose` (default: where it is)."""
+        rotation = self.rotation() if pose is None else rotvec_to_matrix(pose[3:])
         pose = self.pose if pose is None else pose
-        axis = rotvec_to_matrix(pose[3:])[:, 0] * max(self.length / 2.0 - self.width / 2.0, 0.0)
+        axis = rotation[:, 0] * max(self.length / 2.0 - self.width / 2.0, 0.0)
         return pose[:3] - axis, pose[:3] + axis
 
 
 def segment_distance(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarray) -> float:
-    """Least distance between the segments p0-p1 and q0-q1 (clamped closest points)."""
-    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
-    a, e, f = d1 @ d1, d2 @ d2, d2 @ r
-    c, b = d1 @ r, d1 @ d2
+    """Least distance between the segments p0-p1 and q0-q1 (clamped closest points); on Python
+    floats, as it runs for every other element on every tick an element is held."""
+    p0, p1, q0, q1 = p0.tolist(), p1.tolist(), q0.tolist(), q1.tolist()
+    d1 = [p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]]
+    d2 = [q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]]
+    r = [p0[0] - q0[0], p0[1] - q0[1], p0[2] - q0[2]]
+    a, e, f = _dot(d1, d1), _dot(d2, d2), _dot(d2, r)
+    c, b = _dot(d1, r), _dot(d1, d2)
     denom = a * e - b * b
-    s = float(np.clip((b * f - c * e) / denom, 0.0, 1.0)) if denom > 1e-12 else 0.0
+    s = _unit((b * f - c * e) / denom) if denom > 1e-12 else 0.0
     t = (b * s + f) / e if e > 1e-12 else 0.0
     if t < 0.0 or t > 1.0:
-        t = float(np.clip(t, 0.0, 1.0))
-        s = float(np.clip((b * t - c) / a, 0.0, 1.0)) if a > 1e-12 else 0.0
-    return float(np.linalg.norm((p0 + d1 * s) - (q0 + d2 * t)))
+        t = _unit(t)
+        s = _unit((b * t - c) / a) if a > 1e-12 else 0.0
+    return math.dist([p0[i] + d1[i] * s for i in range(3)], [q0[i] + d2[i] * t for i in range(3)])
+
+
+def _dot(u: list[float], v: list[float]) -> float:
+    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+
+
+def _unit(x: float) -> float:
+    """`x` clamped to [0, 1]."""
+    return min(max(x, 0.0), 1.0)
 
 
 @dataclass
@@ -135,6 +161,7 @@ class AssemblyScene(Scene):
         self._noise_scale: dict[str, float] = {}  # plate id -> load noise std (N)
         self._contact = np.zeros(3)  # N, another element pushing back on the held one
         self.collisions: list[str] = []  # "E2 hit E1 at t s", in order
+        self.plate_pushes: dict[tuple[str, str], list[float]] = {}  # (element, plate) -> [first t, most N]
         self._t = 0.0
         self._settle(homogeneous(self.arm.pose()))
 
@@ -216,6 +243,8 @@ class AssemblyScene(Scene):
             force = self.external_force(e)
             top = e.ends()[1]
             plate = self.plate_above(top) if e.is_upright() else None
+            if plate is not None:
+                self._watch_push(e, plate, top)
             if plate is not None and self.config.force_noise:
                 force[2] -= self._rng.normal(0.0, self._load_noise(plate, top))
         self._force = force
@@ -262,6 +291,15 @@ class AssemblyScene(Scene):
             if plate.position_along(p) is not None:
                 return plate
         return None
+
+    def _watch_push(self, e: Element, plate: Plate, top: np.ndarray) -> None:
+        """Note a held element pushing on a plate it does not prop (dragged under it), or pushing
+        any plate harder than the plate weighs (lifting it off its supports)."""
+        load = float(plate.beam.carried_force(plate.position_along(top), plate.origin[2] - top[2]))
+        stray = e.plate and plate.id != e.plate and load > STRAY_LOAD_N
+        if stray or load > plate.beam.weight():
+            seen = self.plate_pushes.setdefault((e.id, plate.id), [self._t, load])
+            seen[1] = max(seen[1], load)
 
     def _load_noise(self, plate: Plate, top: np.ndarray) -> float:
         """Std of the load noise under `plate`: `force_noise` times its true maximum load."""
@@ -322,16 +360,32 @@ class AssemblyScene(Scene):
         return out
 
     def metrics(self) -> dict:
-        """The collisions between elements, when there were any."""
-        return {"collisions": "; ".join(self.collisions)} if self.collisions else {}
+        """The collisions between elements and the plates held elements pushed, when there were any."""
+        out = {"collisions": "; ".join(self.collisions)} if self.collisions else {}
+        if self.plate_pushes:
+            out["plates pushed"] = "; ".join(self._pushes())
+        return out
+
+    def _pushes(self) -> list[str]:
+        """Each plate a held element pushed that it does not prop, or lifted off its supports."""
+        out = []
+        for (eid, pid), (t, most) in self.plate_pushes.items():
+            plate = self.plates[pid]
+            what = ("lifted {} off its supports" if most > plate.beam.weight() else "pushed {}, which it does not prop,")
+            out.append(f"{eid} {what.format(pid)} with up to {most:.0f} N from {t:.1f} s")
+        return out
 
     TOLERANCES: ClassVar[dict[str, float]] = {"max_regret": 0.01}  # the force regret (R* - R) / R* a placed element may have
 
     def shortfalls(self, tolerances: Mapping[str, float]) -> list[str]:
-        """Elements that fell when released, stand without propping a plate, or prop one with
-        more regret than `max_regret`."""
+        """Elements that fell when released, pushed a plate they do not prop or lifted one off its
+        supports, stand without propping a plate, or prop one with more regret than `max_regret`."""
         truth = self.truth()
         out = [f"{e.id} fell when it was released" for e in self.elements.values() if e.state == "dropped"]
+        out += self._pushes()
+        out += [f"{eid} stands lifting {t['plate']} off its supports ({t['load_N']:.0f} N > its "
+                f"{self.plates[t['plate']].beam.weight():.0f} N)" for eid, t in truth.items()
+                if t["load_N"] > self.plates[t["plate"]].beam.weight()]
         out += [f"{e.id} stands but props no plate" for e in self.elements.values()
                 if e.state == "standing" and e.id not in truth]
         out += [f"{eid} props {t['plate']} {1000 * (t['position'] - t['true_best_position']):+.0f} mm from the "
@@ -381,7 +435,7 @@ def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: i
         pose[:2] += rng.uniform(-0.008, 0.008, 2)  # where the element really lies
         true_length = length + rng.uniform(-0.003, 0.003)
         elements[spec["id"]] = Element(spec["id"], true_length, width, depth,
-                                       spec.get("mass", 0.4), pose)
+                                       spec.get("mass", 0.4), pose, plate=spec.get("plate", ""))
     design_file = args.get("design_file")
     spans = {spec["id"]: spec["span"] for spec in args.get("plates", [])}
     loads = plate_loads(scene_file_of(Path(design_file)), spans) if design_file else {}
