@@ -6,7 +6,9 @@ frames from zero displacement, and drop every marker that drifts by more than `m
 changes size by more than `max_size_drift` px (diameter) between its tracked frames, or that is
 tracked in fewer than `min_tracked` of the frames (0: the 2018 rule, where a lost marker keeps its
 last values and only drift counts). It then also drops markers whose size is far from the typical
-marker's (dirt, dark background spots), pale spots (not black ink) and near-duplicates.
+marker's (dirt, dark background spots), pale spots (not black ink), near-duplicates, and markers
+in dark clutter (their ring darker than `max_ring`, or than `lattice_ring` where the lattice of the
+clean markers continues through them: a marker beside a dark edge is kept, a dark spot is not).
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ from perception.config import FingerVisionConfig
 from perception.detect import make_detector, marker_mask
 from perception.errors import FvtreeError
 from perception.frames import FrameError, as_bgr
-from perception.marker_tracking import make_tracker
+from perception.marker_tracking import make_tracker, neighbour_index
 
 FORMAT_KEY = "fingervision_marker_map"
 FORMAT_VERSION = 1
@@ -53,6 +55,12 @@ class MarkerMap:
         keep = np.linalg.norm(self.origin - np.asarray(point, float), axis=1) > radius
         return MarkerMap(self.origin[keep], self.size[keep], self.image_size,
                          None if self.ring is None else self.ring[keep])
+
+    def appended(self, origin: np.ndarray, size: np.ndarray, ring: np.ndarray) -> MarkerMap:
+        """A copy with markers added at the end (found after calibration): existing indices stay."""
+        old_ring = np.zeros(len(self)) if self.ring is None else self.ring
+        return MarkerMap(np.concatenate([self.origin, origin]), np.concatenate([self.size, size]), self.image_size,
+                         np.concatenate([old_ring, ring]))
 
     def save(self, path: str | Path) -> None:
         """Write the map as YAML (one `[x, y, diameter, ring]` row per marker; ring only if known)."""
@@ -85,6 +93,28 @@ class MarkerMap:
                                    f"or [[x, y, size, ring], ...] ({exc})") from None
         ring = rows[:, 3].copy() if rows.shape[1] == 4 else None
         return cls(rows[:, :2].copy(), rows[:, 2].copy(), (w, h), ring)
+
+
+def lattice_steps(lattice: np.ndarray) -> tuple[np.ndarray, float]:
+    """((L, 6, 2) one step on from each marker a along each row through it, a + (a - b) for its
+    neighbours b; the median marker spacing in px)."""
+    nb = neighbour_index(lattice, 6)
+    step = lattice[:, None, :] - lattice[nb]  # from each neighbour to the marker
+    return lattice[:, None, :] + step, float(np.median(np.linalg.norm(step[:, 0], axis=1)))
+
+
+def on_lattice(points: np.ndarray, lattice: np.ndarray, tolerance: float = 0.15) -> np.ndarray:
+    """(K,) points where the marker lattice continues: within `tolerance` marker spacings of a step on
+    (`lattice_steps`) from a lattice marker near the point. A dark spot or an object edge between the
+    rows is not on it."""
+    out = np.zeros(len(points), bool)
+    if len(lattice) < 3 or not len(points):
+        return out
+    ahead, spacing = lattice_steps(lattice)
+    for k, p in enumerate(points):
+        near = np.argsort(np.linalg.norm(lattice - p, axis=1))[:6]
+        out[k] = np.linalg.norm(ahead[near] - p, axis=2).min() < tolerance * spacing
+    return out
 
 
 def _drop_duplicates(origin: np.ndarray, size: np.ndarray, min_dist: float) -> np.ndarray:
@@ -154,11 +184,18 @@ def _stable(images, greys, xy, diameter, config: FingerVisionConfig):
     drift = np.where(valid, np.linalg.norm(pos - first, axis=2), 0.0).max(axis=0)
     size_first = sizes[valid.argmax(axis=0), np.arange(pos.shape[1])]
     keep &= drift <= cal.max_drift
-    keep &= ring <= cal.max_ring  # a marker in dark clutter: its measurements cannot be checked
     keep &= np.where(valid, np.abs(sizes - size_first), 0.0).max(axis=0) <= cal.max_size_drift
     weight = valid / np.maximum(valid.sum(axis=0), 1)
     origin = pos[0] if cal.origin == "first" else np.einsum("fn,fnd->nd", weight, pos)
     diameter = sizes[0] if cal.origin == "first" else (weight * sizes).sum(axis=0)
+    # A marker in dark clutter: its measurements cannot be checked. One beside a dark edge is kept
+    # where the lattice of the clean markers continues (a dark spot between the rows is not) and the
+    # edge does not swell its measured size (then it would bias its centre too).
+    clean = keep & (ring <= cal.max_ring)
+    beside_edge = (ring <= cal.lattice_ring) & on_lattice(origin, origin[clean])
+    if clean.any():
+        beside_edge &= diameter <= 1.1 * np.median(diameter[clean])
+    keep &= clean | beside_edge
     if keep.any():
         typical = np.median(diameter[keep])
         keep &= (diameter > 0.5 * typical) & (diameter < 1.6 * typical)

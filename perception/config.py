@@ -80,6 +80,19 @@ class CalibrationConfig:
     origin: Literal["first", "mean"] = "mean"  # original: the first frame's detection
     min_tracked: float = 0.5  # share of frames a marker must be tracked in (original: 0, drift only)
     max_ring: float = 1.0  # largest dark share of the ring around a kept marker (window tracker; 1 = any)
+    lattice_ring: float = 0.0  # up to this ring share, a marker on the lattice of the others is kept too
+
+
+@dataclass(frozen=True)
+class LateMarkerConfig:
+    """Markers missed at calibration (covered, or merged with a dark edge) and added once they are
+    plainly visible at one place on the skin (`perception.late_markers`; with the window tracker only,
+    the others keep their calibrated map as the original)."""
+
+    enabled: bool = False
+    every: int = 15  # frames between two searches of the lattice holes
+    confirm: int = 4  # consecutive searches a candidate must pass at one place on the skin
+    max_drift: float = 0.8  # px its rest position may move over those searches
 
 
 @dataclass(frozen=True)
@@ -158,6 +171,7 @@ class FingerVisionConfig:
     detector: DetectorConfig = field(default_factory=DetectorConfig)
     tracker: TrackerConfig = field(default_factory=TrackerConfig)
     calibration: CalibrationConfig = field(default_factory=CalibrationConfig)
+    late: LateMarkerConfig = field(default_factory=LateMarkerConfig)
     kalman: KalmanConfig = field(default_factory=KalmanConfig)
     wrench: WrenchConfig = field(default_factory=WrenchConfig)
     proximity: ProximityConfig = field(default_factory=ProximityConfig)
@@ -254,6 +268,8 @@ def _check(c: FingerVisionConfig, source: str) -> None:
         problems.append("kalman noise and covariance values must be positive")
     if c.proximity.width < 24 or c.proximity.height < 24:
         problems.append("proximity.width and height must be at least 24 px")
+    if c.late.every < 1 or c.late.confirm < 2:
+        problems.append("late.every must be at least 1 and late.confirm at least 2")
     if c.tracker.area_range[0] >= c.tracker.area_range[1]:
         problems.append("tracker.area_range must be [low, high] with low < high")
     if problems:

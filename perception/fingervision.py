@@ -20,6 +20,7 @@ from perception.detect import make_detector
 from perception.errors import FvtreeError
 from perception.frames import FrameError, ImageQuality, as_bgr
 from perception.kalman import MarkerKalman
+from perception.late_markers import LateMarkers, NewMarkers
 from perception.marker_tracking import make_tracker, neighbour_index
 from perception.proximity import ProximityVision
 from perception.slip import make_motion, object_slip
@@ -70,6 +71,7 @@ class FingerVision:
         self._kalman = (MarkerKalman(c.kalman, 1.0 / c.camera_fps, marker_map.origin, marker_map.size,
                                      neighbour_index(marker_map.origin, c.tracker.neighbours))
                         if c.kalman.enabled else None)
+        self._late = LateMarkers(c, marker_map) if c.late.enabled and c.tracker.kind == "window" else None
         self._quality.reset()
         if self._motion is not None:
             self._motion.reset()
@@ -102,6 +104,8 @@ class FingerVision:
         m = self.marker_map
         markers = MarkerField(m.origin, position, m.size, size, track.valid, m.image_size)
         self._last = markers
+        if self._late is not None:
+            self._adopt(self._late.search(bgr, grey, markers))
         w = self.config.wrench
         force, torque = wrench(markers, self.finger, w.normal_mode, w.averaging,
                                np.asarray(w.force_scale), np.asarray(w.torque_scale))
@@ -113,6 +117,17 @@ class FingerVision:
                                      f"the skin, lighting changed, or recalibration needed")
         reason = "; ".join(r for r in (reason, warning) if r)  # on a healthy state: a warning
         return TactileState(self.finger, stamp, markers, force, torque, obj, slip, healthy, reason)
+
+    def _adopt(self, new: NewMarkers | None) -> None:
+        """Append markers found after calibration to the map, the tracker and the filter (from the
+        next frame on; existing indices stay)."""
+        if new is None:
+            return
+        self.marker_map = self.marker_map.appended(new.origin, new.size, new.ring)
+        self._tracker.add(new.origin, new.size, new.position, new.ring)
+        if self._kalman is not None:
+            self._kalman.add(new.position, new.size, neighbour_index(self.marker_map.origin,
+                                                                     self.config.tracker.neighbours))
 
     def _washed_out(self, grey: np.ndarray) -> str:
         """A warning when much of the image is saturated (markers are still tracked one by one)."""

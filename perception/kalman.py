@@ -30,11 +30,7 @@ class MarkerKalman:
         if dt <= 0:
             raise ValueError(f"Kalman time step must be positive, got {dt}")
         self.cfg, self.dt = cfg, float(dt)
-        # The motion test's neighbourhoods (each marker and its neighbours) as a 0/1 matrix.
-        self._hood = None
-        if neighbours is not None:
-            self._hood = np.eye(len(size))
-            self._hood[np.arange(len(size))[:, None], neighbours] = 1.0
+        self._neighbours(neighbours, len(size))
         n = len(size)
         self.pos = np.asarray(position, float).copy()  # (N, 2)  x0, y0
         self.vel = np.zeros((n, 2))  # (N, 2)  xt, yt
@@ -43,6 +39,24 @@ class MarkerKalman:
         self.p01 = np.zeros(n)  # position-velocity covariance
         self.p11 = np.full(n, cfg.initial_cov)  # velocity variance
         self.ps = np.full(n, cfg.initial_cov)  # size variance
+
+    def _neighbours(self, neighbours: np.ndarray | None, n: int) -> None:
+        """The motion test's neighbourhoods (each marker and its neighbours) as a 0/1 matrix."""
+        self._hood = None
+        if neighbours is not None:
+            self._hood = np.eye(n)
+            self._hood[np.arange(n)[:, None], neighbours] = 1.0
+
+    def add(self, position: np.ndarray, size: np.ndarray, neighbours: np.ndarray | None = None) -> None:
+        """Append markers at rest at `position` (K, 2) with `size` (K,); `neighbours`: the new (N + K)
+        markers' neighbour indices. Existing markers keep their indices and estimates."""
+        k, c = len(size), self.cfg.initial_cov
+        self.pos = np.concatenate([self.pos, position])
+        self.vel = np.concatenate([self.vel, np.zeros((k, 2))])
+        self.size = np.concatenate([self.size, size])
+        self.p00, self.p11, self.ps = (np.concatenate([p, np.full(k, c)]) for p in (self.p00, self.p11, self.ps))
+        self.p01 = np.concatenate([self.p01, np.zeros(k)])
+        self._neighbours(neighbours, len(self.size))
 
     def restart(self, which: np.ndarray, position: np.ndarray, size: np.ndarray) -> None:
         """Re-initialise the selected markers at the given position and size, at rest."""

@@ -116,8 +116,23 @@ class MarkerTracker:
         self.cfg = cfg
         self.origin = np.asarray(origin, float).copy()
         self.origin_size = np.asarray(origin_size, float).copy()
-        self._fit = LocalFit(self.origin, neighbour_index(self.origin, cfg.neighbours))
+        self._layout()
         self.reset()
+
+    def _layout(self) -> None:
+        """What follows from the marker layout (neighbourhoods; windows in the window tracker)."""
+        self._fit = LocalFit(self.origin, neighbour_index(self.origin, self.cfg.neighbours))
+
+    def add(self, origin: np.ndarray, size: np.ndarray, position: np.ndarray) -> None:
+        """Append markers (rest origins (K, 2), diameters (K,)), now seen at `position` (K, 2): the
+        existing markers keep their indices and their tracking state."""
+        self.origin = np.concatenate([self.origin, origin])
+        self.origin_size = np.concatenate([self.origin_size, size])
+        self.position = np.concatenate([self.position, position])
+        self.size = np.concatenate([self.size, size])
+        self.failures = np.concatenate([self.failures, np.zeros(len(size), int)])
+        self.ring = np.concatenate([self.ring, np.zeros(len(size))])
+        self._layout()
 
     def reset(self) -> None:
         """Put every marker back at its calibrated origin with no failures."""
@@ -229,10 +244,25 @@ class WindowTracker(MarkerTracker):
 
     def __init__(self, cfg: TrackerConfig, origin: np.ndarray, origin_size: np.ndarray,
                  ring_base: np.ndarray | None = None):
-        super().__init__(cfg, origin, origin_size)
         # The ring's dark share at calibration (a dark edge behind the skin next to a marker): only
         # darkness beyond it flags the marker.
-        self.ring_base = np.zeros(len(self.origin)) if ring_base is None else np.asarray(ring_base, float)
+        self.ring_base = np.zeros(len(origin)) if ring_base is None else np.asarray(ring_base, float)
+        super().__init__(cfg, origin, origin_size)
+
+    def add(self, origin: np.ndarray, size: np.ndarray, position: np.ndarray, ring: np.ndarray | None = None) -> None:
+        """Append markers as `MarkerTracker.add`, with their calibrated ring dark share (default 0)."""
+        self.ring_base = np.concatenate([self.ring_base, np.zeros(len(size)) if ring is None else ring])
+        super().add(origin, size, position)
+
+    def measure_once(self, bgr: np.ndarray, grey: np.ndarray):
+        """(positions, diameters, passed the checks, ring dark shares) of the markers measured once
+        around their origins, with no history: vets candidate markers."""
+        xy, size, ok = self._measure(bgr, grey, self.origin, self.origin_size)
+        return xy, size, ok, self.ring.copy()
+
+    def _layout(self) -> None:
+        super()._layout()
+        cfg = self.cfg
         radius = self.origin_size / 2.0  # markers differ in size (distance to the lens, foreshortening)
         self._half = int(cfg.window) if cfg.window > 0 else max(3, int(np.ceil(radius.max() + 3)))
         self._min_sep = 0.5 * min_spacing(self.origin)

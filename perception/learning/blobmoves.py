@@ -16,6 +16,8 @@ FingerVision calibration logs store them. Each frame becomes one row: the marker
 MarkerField on the log's finger (the other finger empty), the wrench the pipeline computes from
 them, and the labels `scale_force` (the load, what ForceLearn learns) and `substance` (the
 label, what StirLearn learns); each trial is one segment, so whole trials are held out together.
+Every frame lists the markers of the frame before, in the same order; markers found after
+calibration (as `fvtree`'s pipeline adds them) are appended and count from the frame they appear in.
 """
 
 from __future__ import annotations
@@ -83,11 +85,12 @@ def _frames(data: dict, file: str) -> tuple[list, str]:
     return out, where
 
 
-def _markers(moves: list, n: int, file: str, field: str) -> np.ndarray:
-    """(n, 6) array of one frame's markers, checked."""
-    if len(moves) != n:
-        raise LogError(f"{len(moves)} markers where the first frame has {n}: every frame lists every marker "
-                       "in the same order", file, field=field)
+def _markers(moves: list, n: int, before: str, file: str, field: str) -> np.ndarray:
+    """(M, 6) array of one frame's markers, checked: M = n, the count of the frame `before`, or more
+    (markers found after calibration are appended, as `fvtree`'s pipeline does)."""
+    if len(moves) < n:
+        raise LogError(f"{len(moves)} markers where {before} has {n}: every frame lists every marker in the same "
+                       "order (markers found later are appended)", file, field=field)
     rows = []
     for j, marker in enumerate(moves):
         if isinstance(marker, dict):
@@ -121,7 +124,7 @@ def _load(data: dict, file: str) -> float | None:
 
 
 def read_trial(path: str | Path) -> dict:
-    """One trial of a log: markers (F, N, 6), load (N) or None, label or None, finger, image size, fps."""
+    """One trial of a log: markers (F, N, 6) (NaN where a marker appended later is not yet listed), load (N) or None, label or None, finger, image size, fps."""
     path = Path(path)
     file = str(path)
     data = _read(path)
@@ -129,7 +132,13 @@ def read_trial(path: str | Path) -> dict:
     n = len(frames[0])
     if n == 0:
         raise LogError("the first frame lists no markers", file, field=f"{where}[0]")
-    markers = np.stack([_markers(moves, n, file, f"{where}[{i}]") for i, moves in enumerate(frames)])
+    rows = [_markers(frames[0], n, "the first frame", file, f"{where}[0]")]
+    for i, moves in enumerate(frames[1:], 1):
+        before = "the first frame" if len(rows[-1]) == n else f"{where}[{i - 1}]"
+        rows.append(_markers(moves, len(rows[-1]), before, file, f"{where}[{i}]"))
+    markers = np.full((len(rows), len(rows[-1]), len(FIELDS)), np.nan)  # NaN: a marker not yet found
+    for i, m in enumerate(rows):
+        markers[i, :len(m)] = m
     load, label = _load(data, file), data.get("label")
     if load is None and label is None:
         raise LogError("no load and no label: give 'load' (N) or 'mass' (g) for ForceLearn, 'label' for StirLearn",
@@ -147,7 +156,8 @@ def read_trial(path: str | Path) -> dict:
 
 
 def _state(finger: str, stamp: float, m: np.ndarray, image_size: tuple[int, int]) -> TactileState:
-    """The TactileState of one frame's (N, 6) markers, with the pipeline's wrench."""
+    """The TactileState of one frame's (N, 6) markers (NaN rows: not yet found), with the pipeline's wrench."""
+    m = m[~np.isnan(m[:, 0])]
     markers = MarkerField(origin=m[:, 0:2], position=m[:, 0:2] + m[:, 3:5], origin_size=m[:, 2],
                           size=m[:, 2] + m[:, 5], valid=np.ones(len(m), bool), image_size=image_size)
     force, torque = wrench(markers, finger)

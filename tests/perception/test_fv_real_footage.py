@@ -29,15 +29,20 @@ def test_markers_are_tracked_across_the_clip_without_jumps(frames):
         m = state.markers
         tracked.append(m.valid.mean())
         if prev is not None:
-            both = m.valid & prev.valid
+            n = len(prev)  # markers added after calibration are appended: compare the ones before
+            both = m.valid[:n] & prev.valid
             # A tracked marker cannot move 3 px more than its own field's median in one frame.
-            step = m.position - prev.position
+            step = m.position[:n] - prev.position
             rel = np.linalg.norm(step - np.median(step[both], axis=0), axis=1) if both.any() else step[:, 0]
             jumps += int((rel[both] > 3.0).sum())
         prev = m
     assert np.median(tracked) >= 0.9
     assert np.percentile(tracked, 5) >= 0.75
     assert jumps <= 0.0005 * len(frames) * len(marker_map)  # at most a handful in ~80k marker-frames
+    # The lattice marker half hidden by the dark object in the first frames is added once plain
+    # (checked by eye on a 3x overlay of frame 344), and nothing else.
+    added = fv.marker_map.origin[len(marker_map):]
+    assert len(added) == 1 and np.linalg.norm(added[0] - REAL_LATE) < 2.0
 
 
 # The 28 markers of the clip's first frame, checked by eye on an overlay of the calibrated map at 3x
@@ -47,6 +52,7 @@ REAL_MARKERS = np.array([
     (25, 9), (204, 18), (142, 19), (86, 22), (258, 25), (40, 31), (301, 36), (13, 43), (142, 77), (207, 78),
     (80, 78), (307, 84), (309, 140), (80, 141), (140, 144), (205, 144), (9, 181), (301, 190), (38, 191),
     (261, 199), (83, 200), (143, 205), (203, 205), (23, 218), (289, 229), (34, 82), (31, 138), (265, 142)], float)
+REAL_LATE = np.array([264.0, 81.0])
 
 
 def test_calibration_finds_the_real_markers_and_nothing_on_the_background(frames):

@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 from conftest import Scene, match
 
-from perception.calibration import CalibrationError, MarkerMap, calibrate_markers
+from assembly.bench.perception.scenes import StressBench
+from drivers.sim.models.synthetic_camera import Appearance
+from perception.calibration import CalibrationError, MarkerMap, calibrate_markers, on_lattice
 from perception.config import TrackerConfig, load_config
 from perception.detect import BlobDetector, ComponentDetector, marker_mask
 from perception.marker_tracking import AssignTracker, LocalFit, WindowTracker, inconsistent, neighbour_index
@@ -225,3 +227,26 @@ def test_calibration_keeps_a_marker_lost_in_a_few_frames_with_the_majority_rule(
         marker_map = calibrate_markers(frames, load_config("fast", calibration__min_tracked=rule))
         kept[rule] = np.linalg.norm(marker_map.origin - scene.model.origin[5], axis=1).min() < 1.0
     assert kept == {0.5: True, 1.0: False}
+
+
+def test_on_lattice_accepts_a_missing_lattice_site_and_not_a_spot_between_rows():
+    grid = np.array([(x * 26.0 + (13.0 if y % 2 else 0.0), y * 22.5) for y in range(6) for x in range(6)])
+    site = grid[14]
+    rest = np.delete(grid, 14, axis=0)
+    between = site + np.array([13.0, 11.0])  # the centre of a triangle of markers
+    assert on_lattice(np.array([site, between]), rest).tolist() == [True, False]
+
+
+def test_calibration_keeps_markers_beside_dark_edges_where_the_lattice_continues():
+    kept = {}
+    for lattice_ring in (0.0, 0.3):
+        config = load_config("fast", proximity__enabled=False, calibration__lattice_ring=lattice_ring)
+        kept[lattice_ring] = []
+        for seed in (3, 7):
+            bench = StressBench(seed, "edges", 0.25)
+            marker_map = calibrate_markers([bench.camera.render(appearance=Appearance(noise=4.0)).image
+                                            for _ in range(10)], config)
+            d = np.linalg.norm(marker_map.origin[:, None] - bench.origin[None], axis=2).min(axis=1)
+            assert d.max() < 0.6  # no false marker, no biased origin
+            kept[lattice_ring].append(len(marker_map))
+    assert sum(kept[0.3]) >= sum(kept[0.0]) + 3

@@ -43,11 +43,13 @@ def run_sequence(fv: FingerVision, frames) -> tuple[list, np.ndarray]:
 
 def score(fv: FingerVision, frames, truth_origin: np.ndarray) -> Track:
     """Run a calibrated pipeline over rendered frames and compare with their ground truth."""
-    idx = match_truth(fv.marker_map.origin, truth_origin)
-    real = idx >= 0
     states, times = run_sequence(fv, frames)
     sq, n, tracked, swaps, off = 0.0, 0, [], 0, 0
+    idx = np.zeros(0, int)
     for state, frame in zip(states, frames):
+        if len(idx) != len(state.markers):  # calibrated, or markers added after calibration
+            idx = match_truth(state.markers.origin, truth_origin)
+            real = idx >= 0
         truth = frame.truth
         est = state.markers.position[real]
         own = truth.position[idx[real]]
