@@ -21,7 +21,6 @@ import math
 from dataclasses import dataclass, fields
 from pathlib import Path
 
-import numpy as np
 import py_trees
 from py_trees.blackboard import Blackboard
 
@@ -112,7 +111,7 @@ class Supervisor:
         age = now - arm.state_stamp()
         if not age <= arm.limits.stale_after:
             return f"link to the arm lost: its state is {age:.3f} s old (limit {arm.limits.stale_after} s)"
-        force = float(np.linalg.norm(arm.tcp_wrench()[:3]))
+        force = math.hypot(*arm.tcp_wrench()[:3].tolist())
         if not force <= arm.limits.max_force:
             return f"force over the limit: {force:.1f} N > {arm.limits.max_force:.1f} N"
         return self._perception_cause(now)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+from operator import attrgetter
 from pathlib import Path
 
 import py_trees
@@ -11,6 +12,8 @@ from py_trees.common import Status
 
 from assembly.loader import BuiltTree
 from drivers.protocols import Clock
+
+STATUS = attrgetter("status")
 
 
 class TransitionLog:
@@ -21,6 +24,8 @@ class TransitionLog:
         self.clock = clock
         self._nodes = list(tree.nodes.items())
         self._last = {path: Status.INVALID for path, _ in self._nodes}
+        self._node_objects = [node for _, node in self._nodes]
+        self._seen = [Status.INVALID] * len(self._nodes)  # every node's status at the last record
         self._file = open(path, "a")
 
     def __call__(self, tree: py_trees.trees.BehaviourTree) -> None:
@@ -28,6 +33,10 @@ class TransitionLog:
 
     def record(self, tick: int) -> None:
         """Log the changes since the last record under tick number `tick`."""
+        statuses = list(map(STATUS, self._node_objects))
+        if statuses == self._seen:  # the usual tick: nothing changed
+            return
+        self._seen = statuses
         changes = []
         for path, node in self._nodes:
             status = node.status

@@ -70,7 +70,7 @@ class SafetyLimits:
         object.__setattr__(self, "workspace_max", hi)
 
     @classmethod
-    def from_dict(cls, d: dict) -> "SafetyLimits":
+    def from_dict(cls, d: dict) -> SafetyLimits:
         known = set(cls.__dataclass_fields__)
         unknown = set(d) - known
         if unknown:
@@ -203,7 +203,7 @@ class SafeArm(Guard):
                 return self.fault()
             now = self.clock.now()
             self.fault()  # latches the driver's own fault
-            force = float(np.linalg.norm(self.tcp_wrench()[:3]))
+            force = math.hypot(*self.tcp_wrench()[:3].tolist())
             self.pose()
             stamp = self.state_stamp()
             if self._causes:

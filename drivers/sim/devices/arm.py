@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from drivers.protocols import Clock
@@ -52,7 +54,7 @@ class KinematicArm:
         self._twist = np.array(twist, dtype=float)
 
     def is_moving(self) -> bool:
-        return self._target is not None or bool(np.any(self._twist))
+        return self._target is not None or bool(self._twist.any())
 
     def stop(self) -> None:
         self._target = None
@@ -66,14 +68,14 @@ class KinematicArm:
         before = self._pose.copy()
         if self._target is not None:
             self._step_towards_target(dt)
-        elif np.any(self._twist):
+        elif self._twist.any():
             v = self._twist[:3]
-            n = np.linalg.norm(v)
+            n = math.hypot(*v.tolist())
             if n > self.max_speed:
                 v = v * (self.max_speed / n)
             self._pose[:3] += v * dt
             w = self._twist[3:]
-            if np.any(w):
+            if w.any():
                 rot = rotvec_to_matrix(w * dt) @ rotvec_to_matrix(self._pose[3:])
                 self._pose[3:] = matrix_to_rotvec(rot)
         self._velocity[:3] = (self._pose[:3] - before[:3]) / dt
@@ -81,14 +83,14 @@ class KinematicArm:
     def _step_towards_target(self, dt: float) -> None:
         target = self._target
         delta = target[:3] - self._pose[:3]
-        dist = float(np.linalg.norm(delta))
+        dist = math.hypot(*delta.tolist())
         reach = self._target_speed * dt
         self._pose[:3] = target[:3] if dist <= reach else self._pose[:3] + delta * (reach / dist)
         arrived_rot = True
         if np.abs(target[3:] - self._pose[3:]).max() > 1e-9:
             cur = rotvec_to_matrix(self._pose[3:])
             err = matrix_to_rotvec(rotvec_to_matrix(target[3:]) @ cur.T)
-            angle = float(np.linalg.norm(err))
+            angle = math.hypot(*err.tolist())
             max_step = self.max_angular_speed * dt
             if angle > max_step:
                 err *= max_step / angle

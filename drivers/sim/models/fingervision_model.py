@@ -66,41 +66,45 @@ class SensorModel:
 
     def __post_init__(self):
         self.origin = radial_marker_layout(self.image_size)
-        self._origin_size = np.full(len(self.origin), self.marker_size)
-        self._valid = np.ones(len(self.origin), bool)
+        n = len(self.origin)
+        self._origin_size = np.full(n, self.marker_size)
+        self._rest = np.column_stack([self.origin, self._origin_size]).ravel()  # x, y, size per marker
+        self._valid = np.ones(n, bool)
         self._rng = np.random.default_rng(self.seed)
         self._centre = np.array(self.image_size, float) / 2.0
+        self._noise_scale = np.array([1.0, 1.0, 0.5]) * self.noise_px
         self._patch_key = None
         self._errors: ErrorModel | None = None
 
-    def _patch(self, centre: np.ndarray):
-        """Per-marker patch weight, radial and tangential unit fields for a contact centre."""
+    def _patch(self, centre) -> np.ndarray:
+        """(5, 3N) displacement basis of a contact centre: how x, y and size of every marker move per
+        unit of shear x, shear y, normal spread, torque turn and size growth (one matrix product a tick)."""
         key = (float(centre[0]), float(centre[1]))
         if key != self._patch_key:
             rel = (self.origin - centre) / self.patch_sigma
-            weight = np.exp(-(rel**2).sum(axis=1) / 2.0)[:, None]
-            self._patch_cache = (weight, weight * rel, weight * np.column_stack([-rel[:, 1], rel[:, 0]]))
+            weight = np.exp(-(rel**2).sum(axis=1) / 2.0)
+            basis = np.zeros((5, len(weight), 3))
+            basis[0, :, 0] = basis[1, :, 1] = basis[4, :, 2] = weight
+            basis[2, :, :2] = weight[:, None] * rel
+            basis[3, :, 0], basis[3, :, 1] = -weight * rel[:, 1], weight * rel[:, 0]
+            self._basis = basis.reshape(5, -1)
             self._patch_key = key
-        return self._patch_cache
+        return self._basis
 
     def state(self, contact: FingerContact, stamp: float) -> TactileState:
         """Render one `TactileState` from the loads on this fingertip."""
-        weight, radial, tangential = self._patch(self._centre if contact.centre is None else contact.centre)
-        n = len(self.origin)
-        errors = self._error_model() if self.pipeline_errors else None
-        noise = self._rng.normal(0.0, self.noise_px, (n, 3)) if self.noise_px and not errors else None
-        position = self.origin + noise[:, :2] if noise is not None else self.origin.copy()
-        position += weight * (self.shear_gain * np.asarray(contact.shear, float))
-        if contact.normal:
-            position += (self.normal_gain * contact.normal) * radial
-        if contact.torque:
-            position += (self.torque_gain * contact.torque) * tangential
-        size = self._origin_size + self.size_gain * max(contact.normal, 0.0) * weight[:, 0]
+        basis = self._patch(self._centre if contact.centre is None else contact.centre)
+        shear_x, shear_y = contact.shear
+        loads = np.array([self.shear_gain * shear_x, self.shear_gain * shear_y, self.normal_gain * contact.normal,
+                          self.torque_gain * contact.torque, self.size_gain * max(contact.normal, 0.0)])
+        exact = (self._rest + loads @ basis).reshape(-1, 3)
+        position, size = exact[:, :2], exact[:, 2]
         obj, slip, valid = contact.obj, contact.slip, self._valid
-        if errors is not None:
-            position, size, valid, obj, slip = errors.apply(contact, position, size)
-        elif noise is not None:
-            size += 0.5 * noise[:, 2]
+        if self.pipeline_errors:
+            position, size, valid, obj, slip = self._error_model().apply(contact, position, size)
+        elif self.noise_px:
+            noisy = exact + self._rng.standard_normal(exact.shape) * self._noise_scale
+            position, size = noisy[:, :2], noisy[:, 2]
         markers = MarkerField(self.origin, position, self._origin_size, size, valid, self.image_size)
         force, torque = wrench(markers, self.finger, self.normal_mode)
         return TactileState(self.finger, stamp, markers, force, torque, obj, slip)

@@ -59,7 +59,7 @@ class PipelineErrors:
 
 def object_radius(area: float) -> float:
     """px radius of a disc covering `area` (share) of the image."""
-    return float(np.sqrt(max(area, 0.0) * IMAGE_PIXELS / np.pi))
+    return math.sqrt(max(area, 0.0) * IMAGE_PIXELS / math.pi)
 
 
 def image_motion(prev, contact, prev_markers: np.ndarray, markers: np.ndarray) -> float:
@@ -67,11 +67,13 @@ def image_motion(prev, contact, prev_markers: np.ndarray, markers: np.ndarray) -
     its centroid, its turn (at half its radius), its edge growing or shrinking, and the markers
     moving over it (mean)."""
     obj, last = contact.obj, prev.obj
-    motion = SLIP_PX_PER_UNIT * contact.slip + float(np.abs(markers - prev_markers).sum()) / markers.size
+    moved = np.subtract(markers, prev_markers)
+    motion = SLIP_PX_PER_UNIT * contact.slip + float(np.add.reduce(np.abs(moved, out=moved), axis=None)) / moved.size
     if obj.present and last.present:
-        motion += math.hypot(*(obj.centroid - last.centroid)) * IMAGE_SCALE
-        motion += abs(obj.orientation - last.orientation) * 0.5 * object_radius(obj.area)
-        motion += abs(object_radius(obj.area) - object_radius(last.area))
+        (dx, dy) = (obj.centroid - last.centroid).tolist()
+        radius = object_radius(obj.area)
+        motion += math.hypot(dx, dy) * IMAGE_SCALE + abs(obj.orientation - last.orientation) * 0.5 * radius
+        motion += abs(radius - object_radius(last.area))
     elif obj.present != last.present:
         motion += object_radius(max(obj.area, last.area))
     return motion
@@ -98,38 +100,55 @@ class ErrorModel:
         if self._position is None:
             self._start(position, size)
         if self._tick == BLOCK:
-            n, k = len(position), len(self._lossy)
-            self._normal = self._rng.standard_normal((BLOCK, 3 * n + 5))
-            self._uniform = self._rng.random((BLOCK, k + 2))
-            self._tick = 0
-        normal, uniform = self._normal[self._tick], self._uniform[self._tick]
+            self._draw(len(position))
+        t = self._tick
         self._tick += 1
-        obj, slip = self._view(contact, position, normal[-5:], uniform[-2:])
-        return (*self._markers(position, size, normal[:-5], uniform[:-2]), obj, slip)
+        obj, slip = self._view(contact, position, self._scalars[t], self._centroid[t])
+        return (*self._markers(position, size, t), obj, slip)
 
     def _start(self, position: np.ndarray, size: np.ndarray) -> None:
         self._lossy = np.flatnonzero(self._rng.random(len(position)) < self.e.lossy_share)  # fixed per sensor
         self._position, self._size, self._all = position, size, np.ones(len(position), bool)
 
-    def _markers(self, position: np.ndarray, size: np.ndarray, normal: np.ndarray, uniform: np.ndarray):
+    def _draw(self, n: int) -> None:
+        """The random numbers of the next BLOCK ticks, in one generator call per kind, scaled
+        once: marker noise, which lossy markers are lost, and the object and slip noise."""
+        e, k = self.e, len(self._lossy)
+        normal = self._rng.standard_normal((BLOCK, 3 * n + 5))
+        uniform = self._rng.random((BLOCK, k + 2))
+        noise = e.noise_px * normal[:, :3 * n].reshape(BLOCK, n, 3)
+        self._noise_xy, self._noise_size = noise[:, :, :2], 0.5 * noise[:, :, 2]
+        self._lost = np.zeros((BLOCK, n), bool)
+        self._lost[:, self._lossy] = uniform[:, :k] < e.lossy_rate
+        self._tracked, self._any_lost = ~self._lost, self._lost.any(axis=1).tolist()
+        z = normal[:, 3 * n:]
+        self._centroid = z[:, 2:4] * (e.centroid_px / math.sqrt(2.0) / IMAGE_SCALE)
+        # per tick: slip noise, area noise, angle noise, slip floor (Exp(1)), miss draw
+        self._scalars = np.column_stack([z[:, 0], e.area_noise * z[:, 1], e.angle_rad * z[:, 4],
+                                         -e.slip_floor * np.log1p(-uniform[:, k]), uniform[:, k + 1]]).tolist()
+        self._tick = 0
+
+    def _markers(self, position: np.ndarray, size: np.ndarray, t: int):
         """Filtered, noisy marker positions and sizes, and which were tracked; lost markers keep
         their last estimate."""
         e = self.e
-        lost = self._lossy[uniform < e.lossy_rate]
         if e.lag_alpha < 1.0:
             position = self._position + e.lag_alpha * (position - self._position)
             size = self._size + e.lag_alpha * (size - self._size)
         valid = self._all
-        if lost.size:
-            position, size, valid = position.copy(), size.copy(), self._all.copy()
-            position[lost], size[lost], valid[lost] = self._position[lost], self._size[lost], False
+        if self._any_lost[t]:
+            lost = self._lost[t]
+            position = np.where(lost[:, None], self._position, position)
+            size = np.where(lost, self._size, size)
+            valid = self._tracked[t]
         self._position, self._size = position, size
-        noise = e.noise_px * normal.reshape(-1, 3)
-        return position + noise[:, :2], size + 0.5 * noise[:, 2], valid
+        return position + self._noise_xy[t], size + self._noise_size[t], valid
 
-    def _view(self, contact, truth_markers: np.ndarray, z: np.ndarray, u: np.ndarray) -> tuple[ObjectInfo, float]:
-        """The object and the slip the pipeline would report (z: five normals, u: two uniforms)."""
+    def _view(self, contact, truth_markers: np.ndarray, scalars: list[float],
+              centroid_noise: np.ndarray) -> tuple[ObjectInfo, float]:
+        """The object and the slip the pipeline would report (`scalars`: this tick's draws, see `_draw`)."""
         e = self.e
+        slip_noise, area_noise, angle_noise, floor, miss = scalars
         last, self._contact = self._contact, contact
         prev_markers, self._truth = self._truth, truth_markers
         motion = 0.0 if last is None else image_motion(last, contact, prev_markers, truth_markers)
@@ -137,11 +156,9 @@ class ErrorModel:
         area = obj.area if obj.present else 0.0
         self._slip.append(e.slip_gain * area * min(motion, e.slip_saturation))
         expected = self._slip.popleft()
-        floor = -e.slip_floor * math.log1p(-u[0])  # slip_floor * Exp(1)
-        slip = max(0.0, expected * (1.0 + e.slip_noise * z[0])) + floor
-        if not obj.present or obj.area <= 0.0 or u[1] < e.object_miss:
+        slip = max(0.0, expected * (1.0 + e.slip_noise * slip_noise)) + floor
+        if not obj.present or obj.area <= 0.0 or miss < e.object_miss:
             return ObjectInfo(), slip
-        centroid = obj.centroid + z[2:4] * (e.centroid_px / math.sqrt(2.0) / IMAGE_SCALE)
-        seen = ObjectInfo(True, max(e.area_scale * obj.area + e.area_noise * z[1], 1e-4), centroid,
-                          obj.orientation + e.angle_rad * z[4], obj.cells, obj.motion_cells)
+        seen = ObjectInfo(True, max(e.area_scale * obj.area + area_noise, 1e-4), obj.centroid + centroid_noise,
+                          obj.orientation + angle_noise, obj.cells, obj.motion_cells)
         return seen, slip

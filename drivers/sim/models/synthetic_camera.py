@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from drivers.camera_frames import LatestFrames
 from drivers.clock import SimClock
 from drivers.protocols import World
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
@@ -338,8 +339,10 @@ def pixel_level_sense(world: World, sensors: Mapping[str, SensorModel], clock: S
             shift[finger] += SLIP_PX_PER_UNIT * contact.slip
             frame = cameras[finger].render(position, size, contact.obj, shift[finger])
             states[finger] = pipelines[finger].process(frame.image, now)
+            sense.frames.keep(finger, frame.image, now)
         return states
 
+    sense.frames = LatestFrames()  # for the run's recording
     return sense
 
 
