@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Callable
 
 from assembly.design_link.commands import add_design_link_commands, add_link_options
+from assembly.observe import IMAGE_HZ
 from perception.errors import FvtreeError, FvtreeErrors
 
 EXIT_FAILURE = 1  # the tree ran and failed, or a check failed
@@ -96,6 +97,7 @@ def cmd_run(args) -> int:
             perception=args.perception, runs_dir=Path(args.runs_dir), resume=args.resume,
             estop_at=args.estop_at, max_time=args.max_time, plots=not args.no_plots, marks=dict(args.mark),
             scene=args.scene, record=not args.no_record, live=viewer.grpc if viewer else None,
+            record_images=args.record_images,
             bridge_url=args.bridge, cell_name=args.cell_name, coordinated=args.coordinated,
         )
     if summary.get("nothing_to_do"):
@@ -286,6 +288,9 @@ def parser() -> argparse.ArgumentParser:
                    help="give up after this much cell time")
     r.add_argument("--no-plots", action="store_true", help="skip the PNG charts")
     r.add_argument("--no-record", action="store_true", help="do not write the run's recording (recording.rrd)")
+    r.add_argument("--record-images", type=NON_NEGATIVE, default=IMAGE_HZ, metavar="HZ",
+                   help="camera frames per second of cell time in the recording, when the cell has images "
+                        f"(pixel perception, real cameras); 0: none (default: {IMAGE_HZ:g})")
     r.add_argument("--view", action="store_true",
                    help="stream the run live to a web viewer on 127.0.0.1 (kept serving until Ctrl-C)")
     r.add_argument("--mark", type=_mark, action="append", default=[], metavar="ELEMENT=placed|planned",

@@ -18,6 +18,7 @@ from assembly.blackboard import clear_blackboard
 from assembly.design import DesignBridge, DesignModel
 from assembly.errors import TreeError
 from assembly.loader import TreeDocument, build, load_tree, with_scene
+from assembly.observe import IMAGE_HZ
 from assembly.observe.recorder import run_recorder
 from assembly.progress import end_stderr_progress, stderr_progress
 from assembly.report import format_summary, plot_profiles, summarize, write_summary
@@ -38,12 +39,13 @@ def run_tree(tree_path: str, cell: str = "sim", seed: int = 0, realtime: bool = 
              quiet: bool = False, marks: dict[str, str] | None = None, scene: str | None = None,
              record: bool = True, live: str | None = None, bridge_url: str | None = None,
              cell_name: str | None = None, coordinated: bool = False,
-             substitutions: list[Rule] | None = None) -> dict:
+             substitutions: list[Rule] | None = None, record_images: float = IMAGE_HZ) -> dict:
     """Run a tree file end to end; returns the summary (also written to the run directory).
 
     `marks` ({element: placed|planned}, resuming only) records a person's check of elements a
     stopped run left being placed; `scene` replaces the tree's simulated scene. `record` writes
-    the run's Rerun recording into the run directory; `live` streams it to a viewer at that URL.
+    the run's Rerun recording into the run directory; `live` streams it to a viewer at that URL;
+    `record_images` is the rate of camera frames in it (per second of cell time, 0: none).
     `bridge_url` (mqtt://HOST:PORT) links the design bridge live to designers under `cell_name`
     (default: the tree's name); `coordinated` takes the elements from a design coordinator.
     `substitutions` replace nodes by path or glob with test doubles (`assembly.substitution`)."""
@@ -84,7 +86,8 @@ def run_tree(tree_path: str, cell: str = "sim", seed: int = 0, realtime: bool = 
         if placed_before and the_cell.world is not None:
             _stand_placed(the_cell.world, design, placed_before)
         built = build(doc)
-        recorder = run_recorder(built, the_cell, run_dir, design, record, live) if record or live else None
+        recorder = (run_recorder(built, the_cell, run_dir, design, record, live, record_images)
+                    if record or live else None)
         runner = Runner(built, the_cell, run_dir, bridge, realtime=realtime,
                         progress=None if quiet else stderr_progress, estop_at=estop_at, max_time=max_time,
                         supervision=supervision, recorder=recorder)

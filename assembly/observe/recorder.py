@@ -8,17 +8,21 @@ change: node statuses (graph colours and a structured `tree/status` row with the
 marker origins and validity, the feedback of running nodes (`tree/feedback`: e.g. each sample of a
 load scan), the element being built, the load profile, the events of the run
 (placements, faults, halts) with the placed elements in 3-D. Every command that passes the safety
-gate of arm and gripper (`Guard.observers`). A batch is sent every `batch` ticks or `max_wait` s of
-wall time, whichever comes first, so a killed run keeps all but its last batch.
+gate of arm and gripper (`Guard.observers`). Each finger's camera frame as a JPEG under its marker
+arrows (`fv/<finger>/markers/image`), `images_hz` times a second of cell time, when the perception
+source has images (pixel mode, real cameras: `drivers.camera_frames`). A batch is sent every `batch`
+ticks or `max_wait` s of wall time, whichever comes first, so a killed run keeps all but its last batch.
 """
 
 from __future__ import annotations
 
 import json
 import time
+from operator import attrgetter
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 import py_trees
 import rerun as rr
@@ -27,11 +31,13 @@ from py_trees.common import Status
 
 from assembly.design import DesignModel
 from assembly.loader import BuiltTree
+from assembly.observe import IMAGE_HZ
 from assembly.observe.columns import Block, Sparse, time_columns
 from assembly.observe.layout import default_blueprint
 from assembly.observe.scene3d import element_box, plate_boxes, quaternions
 from assembly.observe.tree_graph import tree_graph
 from behaviours import keys
+from drivers.camera_frames import frames_of
 from drivers.cell import Cell
 from perception.state import FINGERS
 
@@ -47,19 +53,25 @@ ROBOT_WIDTH, FINGER_WIDTH = 14, 14  # scalars per tick: robot and gripper, each 
 VALID_RGBA, INVALID_RGBA = np.uint32(0x3CB44BFF), np.uint32(0xDC322FFF)  # tracked, lost markers (packed RGBA)
 EVENT_LEVELS = {"crashed": "CRITICAL", "halted": "WARN", "failed": "WARN"}
 NODE_RADIUS = 14.0  # tree graph nodes, in the graph's units (nodes are X_STEP apart)
+STATUS, FEEDBACK = attrgetter("status"), attrgetter("feedback_message")
 PROFILE_HEIGHT = 0.4  # the load profile is drawn this high for its span (a 2-D view keeps aspect)
+JPEG_QUALITY = 85  # camera frames: about 13 kB each at 320x240, 0.15 ms to encode
 
 
 class RunRecorder:
     """Post-tick handler recording a run (see the module docstring); `close()` sends what is left.
 
     `path`: the .rrd file (None: no file); `live`: a gRPC URL of a viewer to stream to (None: no
-    live view). `events`: the run's event log, read as it grows."""
+    live view). `events`: the run's event log, read as it grows. `images_hz`: camera frames a second
+    of cell time, JPEG-encoded, when the perception source has images (0: none)."""
 
     def __init__(self, tree: BuiltTree, cell: Cell, path: Path | None = None, live: str | None = None,
-                 design: DesignModel | None = None, events: Path | None = None, batch: int = 300,
-                 max_wait: float = 1.0):
+                 design: DesignModel | None = None, events: Path | None = None, batch: int = 1000,
+                 max_wait: float = 1.0, images_hz: float = IMAGE_HZ):
         self.cell = cell
+        self._frames = frames_of(cell.sense) if images_hz > 0 else None
+        self._image_period = 1.0 / images_hz if images_hz > 0 else float("inf")
+        self._next_image = -float("inf")  # cell time of the next frame to record
         self.path = path
         self.batch, self.max_wait = batch, max_wait
         self.stream = rr.RecordingStream(APPLICATION, recording_id=f"{path.parent.name}/{path.stem}" if path else None)
@@ -72,16 +84,17 @@ class RunRecorder:
         self._order = {p: i for i, p in enumerate(self._graph.paths)}
         self._statuses = ["INVALID"] * len(self._graph.paths)
         self._last = {path: Status.INVALID for path, _ in self._nodes}
-        self._ticks = np.zeros(batch, np.int64)
-        self._times = np.zeros(batch)
-        self._state = Block(batch, (ROBOT_WIDTH + FINGER_WIDTH * len(FINGERS),))
+        self._rows: list[tuple] = []  # per tick: tick, cell time, pose, wrench, width, object, each finger's state
         self._arrows: dict[str, Block | None] = {f: None for f in FINGERS}
+        self._sizes: tuple[int, ...] = ()  # markers per finger the blocks are sized for
         self._n = 0
         self._next_tick = 0  # the tick that commands sent now belong to
         self._sent_at = time.perf_counter()
         self._sparse = {name: Sparse() for name in ("status", "transitions", "feedback", "graph", "commands/arm",
                                                     "commands/gripper")}
         self._feedback = {path: "" for path, _ in self._nodes}
+        self._node_objects = [node for _, node in self._nodes]
+        self._seen: tuple[list, list] = ([], [])  # every node's status and feedback at the last tick
         self._valid: dict[str, Block] = {}
         self._origins: dict[str, np.ndarray | None] = {f: None for f in FINGERS}
         self._element = self._profile = None
@@ -123,23 +136,29 @@ class RunRecorder:
         self.record(tree.count)
 
     def record(self, tick: int) -> None:
-        """Keep this tick's row (the snapshot the tree acted on, and the statuses it left)."""
+        """Keep this tick's row (the snapshot the tree acted on, and the statuses it left): references to
+        the tick's readings (the perception stage publishes new ones every tick) and a copy of the marker
+        arrows; the columns are built once per batch in `send`."""
         if self._closed:
             return
         storage = Blackboard.storage
         now = self.cell.clock.now()
+        states = (storage[keys.FV_LEFT], storage[keys.FV_RIGHT])
+        if (len(states[0].markers), len(states[1].markers)) != self._sizes:
+            self._fit(states)
         i = self._n
         self._next_tick = tick + 1  # commands sent from now on belong to the next tick
-        self._ticks[i], self._times[i] = tick, now
-        row = self._state.rows[i]
-        row[0:6] = storage[keys.ROBOT_POSE]
-        row[6:12] = storage[keys.ROBOT_WRENCH]
-        row[12] = storage[keys.GRIPPER_WIDTH]
-        row[13] = storage[keys.GRIPPER_OBJECT]
-        for k, finger in enumerate(FINGERS):
-            self._finger(tick, now, finger, storage[keys.FV_LEFT if k == 0 else keys.FV_RIGHT],
-                         row[ROBOT_WIDTH + FINGER_WIDTH * k:ROBOT_WIDTH + FINGER_WIDTH * (k + 1)], i)
+        self._rows.append((tick, now, storage[keys.ROBOT_POSE], storage[keys.ROBOT_WRENCH],
+                           storage[keys.GRIPPER_WIDTH], storage[keys.GRIPPER_OBJECT], *states))
+        for finger, state in zip(FINGERS, states):
+            markers = state.markers
+            np.subtract(markers.position, markers.origin, out=self._arrows[finger].rows[i])
+            self._valid[finger].rows[i] = markers.valid if len(markers.valid) else True  # none given: all tracked
+            if self._origins[finger] is not markers.origin:
+                self._calibrated(tick, now, finger, markers)
         self._n = i + 1
+        if self._frames is not None and now + 1e-9 >= self._next_image:  # 1e-9: cell time is a sum of periods
+            self._images(tick, now)
         self._tree(tick, now)
         self._task(tick, now, storage)
         if self._events is not None:
@@ -147,31 +166,39 @@ class RunRecorder:
         if self._n == self.batch or time.perf_counter() - self._sent_at > self.max_wait:
             self.send()
 
-    def _finger(self, tick: int, now: float, finger: str, state, out: np.ndarray, i: int) -> None:
-        out[0:3] = state.force
-        out[3:6] = state.torque
-        out[6] = state.slip
-        obj = state.obj
-        out[7], out[8:10], out[10] = obj.area, obj.centroid, obj.orientation
-        markers = state.markers
-        valid = markers.valid
-        out[11], out[12], out[13] = state.healthy, valid.mean() if len(valid) else 0.0, obj.present
-        arrows = self._arrows[finger]
-        if arrows is None or arrows.shape[0] != len(markers):
-            if arrows is not None and i:
-                self.send()
-                i = 0
-            arrows = self._arrows[finger] = Block(self.batch, (len(markers), 2), np.float32)
-            self._valid[finger] = Block(self.batch, (len(markers),), bool)
-        np.subtract(markers.position, markers.origin, out=arrows.rows[i], casting="same_kind")
-        self._valid[finger].rows[i] = valid
-        if self._origins[finger] is not markers.origin and not np.array_equal(self._origins[finger], markers.origin):
-            w, h = markers.image_size  # (re)calibrated: new origins for the arrows
+    def _fit(self, states: tuple) -> None:
+        """Arrow and validity blocks sized for each finger's markers (a new calibration may change their
+        number: the rows kept so far are sent first)."""
+        if self._n:
+            self.send()
+        self._sizes = tuple(len(state.markers) for state in states)
+        for finger, m in zip(FINGERS, self._sizes):
+            self._arrows[finger] = Block(self.batch, (m, 2))
+            self._valid[finger] = Block(self.batch, (m,), bool)
+
+    def _calibrated(self, tick: int, now: float, finger: str, markers) -> None:
+        """New marker origins (a first or new calibration) for the arrows of `finger`."""
+        if not np.array_equal(self._origins[finger], markers.origin):
+            w, h = markers.image_size
             self._at(tick, now, f"fv/{finger}/markers", rr.Arrows2D.from_fields(origins=markers.origin))
             self._at(tick, now, f"fv/{finger}/markers/frame", rr.Boxes2D(mins=[0, 0], sizes=[w, h]))
         self._origins[finger] = markers.origin
 
+    def _images(self, tick: int, now: float) -> None:
+        """Each finger's newest camera frame as a JPEG under its marker arrows (same pixel axes)."""
+        self._next_image = now + self._image_period
+        for finger, (image, _) in list(self._frames.images.items()):
+            ok, jpeg = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY])
+            if ok:
+                self._at(tick, now, f"fv/{finger}/markers/image",
+                         rr.EncodedImage(contents=jpeg.tobytes(), media_type="image/jpeg"))
+
     def _tree(self, tick: int, now: float) -> None:
+        nodes = self._node_objects
+        seen = (list(map(STATUS, nodes)), list(map(FEEDBACK, nodes)))
+        if seen == self._seen:  # the usual tick: no status and no feedback changed
+            return
+        self._seen = seen
         changed = False
         for path, node in self._nodes:
             status = node.status
@@ -265,30 +292,59 @@ class RunRecorder:
 
     # ---- sending -----------------------------------------------------------------------------------
     def send(self) -> None:
-        """Send the kept rows as columns, one call per entity."""
+        """Send the kept rows as columns, one call per entity: the sparse rows (statuses, commands) first,
+        so that a run killed while a batch is written keeps them with any of its ticks."""
         n = self._n
         send = self.stream.send_columns
+        self._send_sparse()
         if n:
-            index = time_columns(self._ticks[:n].copy(), self._times[:n].copy())
-            rows = self._state.rows[:n]
+            rows = self._rows
+            index = time_columns(np.array([r[0] for r in rows], np.int64), np.array([r[1] for r in rows]))
+            table = self._table(rows)
             for entity, (start, names) in ROBOT.items():
-                send(entity, index, rr.Scalars.columns(scalars=rows[:, start:start + len(names)]))
-            send("cell/tool", index, rr.Transform3D.columns(translation=rows[:, 0:3], quaternion=quaternions(rows[:, 3:6])))
+                send(entity, index, rr.Scalars.columns(scalars=table[:, start:start + len(names)]))
+            send("cell/tool", index, rr.Transform3D.columns(translation=table[:, 0:3],
+                                                              quaternion=quaternions(table[:, 3:6])))
             for k, finger in enumerate(FINGERS):
                 base = ROBOT_WIDTH + FINGER_WIDTH * k
                 for what, (start, names) in FINGER.items():
                     send(f"fv/{finger}/{what}", index,
-                         rr.Scalars.columns(scalars=rows[:, base + start:base + start + len(names)]))
-                arrows = self._arrows[finger]
-                if arrows is not None and arrows.shape[0]:
-                    m = arrows.shape[0]
+                         rr.Scalars.columns(scalars=table[:, base + start:base + start + len(names)]))
+                m = self._arrows[finger].shape[0]
+                if m:
                     valid = self._valid[finger].rows[:n].reshape(-1)
                     send(f"fv/{finger}/markers", index, rr.Arrows2D.columns(
-                        vectors=arrows.rows[:n].reshape(-1, 2),
+                        vectors=self._arrows[finger].rows[:n].reshape(-1, 2).astype(np.float32),
                         colors=np.where(valid, VALID_RGBA, INVALID_RGBA)).partition([m] * n))
-        self._send_sparse()
         self._n = 0
+        self._rows = []
         self._sent_at = time.perf_counter()
+
+    def _table(self, rows: list[tuple]) -> np.ndarray:
+        """(n, ROBOT_WIDTH + FINGER_WIDTH * fingers) scalars of the kept rows, laid out as `ROBOT` and
+        `FINGER` say: built a column at a time, once per batch."""
+        n = len(rows)
+        table = np.empty((n, ROBOT_WIDTH + FINGER_WIDTH * len(FINGERS)))
+        table[:, 0:6] = [r[2] for r in rows]
+        table[:, 6:12] = [r[3] for r in rows]
+        table[:, 12] = [r[4] for r in rows]
+        table[:, 13] = [r[5] for r in rows]
+        for k, finger in enumerate(FINGERS):
+            states = [r[6 + k] for r in rows]
+            objects = [s.obj for s in states]
+            base = ROBOT_WIDTH + FINGER_WIDTH * k
+            block = table[:, base:base + FINGER_WIDTH]
+            block[:, 0:3] = [s.force for s in states]
+            block[:, 3:6] = [s.torque for s in states]
+            block[:, 6] = [s.slip for s in states]
+            block[:, 7] = [o.area for o in objects]
+            block[:, 8:10] = [o.centroid for o in objects]
+            block[:, 10] = [o.orientation for o in objects]
+            block[:, 11] = [s.healthy for s in states]
+            valid = self._valid[finger].rows[:n]
+            block[:, 12] = valid.mean(axis=1) if valid.shape[1] else 0.0
+            block[:, 13] = [o.present for o in objects]
+        return table
 
     def _send_sparse(self) -> None:
         send = self.stream.send_columns
@@ -347,8 +403,9 @@ def recording_path(run_dir: Path) -> Path:
 
 
 def run_recorder(tree: BuiltTree, cell: Cell, run_dir: Path, design: DesignModel | None, record: bool = True,
-                 live: str | None = None) -> RunRecorder:
+                 live: str | None = None, images_hz: float = IMAGE_HZ) -> RunRecorder:
     """The recorder of one `fvtree run`: to the run directory's recording file (when `record`) and
-    live to the viewer at `live` (a gRPC URL), reading the run's event log as it grows."""
+    live to the viewer at `live` (a gRPC URL), reading the run's event log as it grows, with camera
+    frames at `images_hz` a second of cell time when the cell has images."""
     return RunRecorder(tree, cell, recording_path(run_dir) if record else None, live, design,
-                       run_dir / "events.jsonl")
+                       run_dir / "events.jsonl", images_hz=images_hz)

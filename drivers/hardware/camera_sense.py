@@ -8,6 +8,7 @@ from __future__ import annotations
 import time
 from typing import Callable
 
+from drivers.camera_frames import LatestFrames
 from drivers.hardware.camera import OpenCvCamera
 from drivers.protocols import Clock, DriverFault
 from perception.calibration import MarkerMap
@@ -42,12 +43,14 @@ def fingervision_sense(cameras: dict[str, OpenCvCamera], clock: Clock, config: F
             got = cameras[finger].read()
             if got is not None:
                 last[finger] = pipelines[finger].process(*got)
+                sense.frames.keep(finger, *got)
             elif finger not in last or now - last[finger].stamp > stale_after:
                 why = cameras[finger].last_error or "stream stalled"
                 last[finger] = TactileState(finger, now, healthy=False, health_reason=(
                     f"camera {finger}: no frame for {stale_after:g} s ({why})"))
         return dict(last)
 
+    sense.frames = LatestFrames()  # for the run's recording
     return sense
 
 
