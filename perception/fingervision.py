@@ -95,7 +95,7 @@ class FingerVision:
         problem = self._quality.problem(grey)
         if problem:
             return self._unhealthy(stamp, problem)
-        warning = self._washed_out(grey)
+        warning = self._washed_out()
         track = self._tracker.step(bgr, grey)
         position, size = track.position, track.size
         if self._kalman is not None:
@@ -129,10 +129,9 @@ class FingerVision:
             self._kalman.add(new.position, new.size, neighbour_index(self.marker_map.origin,
                                                                      self.config.tracker.neighbours))
 
-    def _washed_out(self, grey: np.ndarray) -> str:
+    def _washed_out(self) -> str:
         """A warning when much of the image is saturated (markers are still tracked one by one)."""
-        sample = grey[::4, ::4]
-        saturated = float(np.count_nonzero(sample >= 250)) / sample.size
+        saturated = self._quality.saturated  # of the frame just checked
         if saturated <= self.config.health.saturated_share:
             return ""
         return f"image washed out ({saturated:.0%} of pixels saturated); reduce exposure or glare"

@@ -43,6 +43,7 @@ class ImageQuality:
         self.config = config
         self._last: np.ndarray | None = None
         self._repeats = 0
+        self.saturated = 0.0  # share of saturated pixels (>= 250) in the last frame checked
 
     def reset(self) -> None:
         """Forget the previous frame (after a recalibration or camera restart)."""
@@ -50,16 +51,16 @@ class ImageQuality:
 
     def problem(self, grey: np.ndarray) -> str:
         """Why this grey frame is unusable, or "" when it is fine."""
-        sample = grey[::4, ::4]  # 1/16 of the pixels is plenty for global statistics
+        sample = grey[::4, ::4].copy()  # 1/16 of the pixels is plenty for global statistics (contiguous)
         if self._last is not None and np.array_equal(sample, self._last):
             self._repeats += 1
         else:
             self._repeats = 0
-        self._last = sample.copy()
-        mean = float(sample.mean())
+        self._last = sample
+        mean = cv2.mean(sample)[0]
+        self.saturated = saturated = cv2.countNonZero(cv2.compare(sample, 250, cv2.CMP_GE)) / sample.size
         if mean < self.config.dark_level:
             return f"image too dark (mean grey {mean:.0f} < {self.config.dark_level:.0f}); check lighting"
-        saturated = float(np.count_nonzero(sample >= 250)) / sample.size
         if saturated > self.config.saturated_share:
             return f"image washed out ({saturated:.0%} of pixels saturated); reduce exposure or glare"
         if self._repeats >= self.config.frozen_frames:
