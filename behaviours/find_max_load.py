@@ -68,7 +68,7 @@ class FindMaxLoad(ProgramSkill):
     }
     READS = (keys.ELEMENT, keys.PLATES, keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT,
              keys.ROBOT_MOVING, keys.ROBOT_WRENCH, keys.GRIPPER_WIDTH, keys.GRIPPER_FAULT, keys.GRIPPER_MOVING)
-    WRITES = (keys.LOAD_PROFILE, keys.BEST_POSE, keys.MEASURED_LOAD)
+    WRITES = (keys.LOAD_PROFILE, keys.LOAD_SCAN, keys.BEST_POSE, keys.MEASURED_LOAD)
 
     @classmethod
     def validate(cls, params) -> None:
@@ -128,6 +128,8 @@ class FindMaxLoad(ProgramSkill):
             return None, fault, False
 
         positions, loads, recent, slipped, last = [], [], deque(maxlen=self.p.slip_ticks), [False], [None]
+        # Written once; the lists grow as the scan goes, so a live view can draw the profile growing.
+        self.write(keys.LOAD_SCAN, {"plate": element["plate"], "position": positions, "load": loads})
 
         def sample() -> str | None:
             left, right = self.tactile()

@@ -18,6 +18,7 @@ ELEMENT_LENGTH = "/task/element_length"
 GRASP_WIDTH = "/task/grasp_width"
 CONTACT_POSE = "/task/contact_pose"
 LOAD_PROFILE = "/task/load_profile"
+LOAD_SCAN = "/task/load_scan"  # the scan in progress: its samples grow in place (for live views)
 BEST_POSE = "/task/best_pose"
 MEASURED_LOAD = "/task/measured_load"
 ASBUILT = "/task/asbuilt"

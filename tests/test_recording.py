@@ -163,3 +163,15 @@ def test_a_killed_run_keeps_a_readable_recording(tmp_path):
 def test_no_record_writes_no_recording(tmp_path):
     summary = run_tree(str(ASSEMBLY), runs_dir=tmp_path, plots=False, quiet=True, record=False, max_time=1.0)
     assert not list(Path(summary["run_dir"]).glob("*.rrd"))
+
+
+def test_the_load_profile_grows_during_the_scan(assembly_run):
+    summary, _, rec = assembly_run
+    rows = [r for r in rec["task/load_profile/E1/load"] if r["tick"] is not None]
+    lengths = [len(r["LineStrips2D:strips"][0]) for r in rows]
+    assert len(rows) >= 10  # drawn about once a second of cell time while the scan goes
+    assert lengths == sorted(lengths) and lengths[0] < lengths[-1] / 5
+    final = [r["tick"] for r in rec["task/load_profile/E1/best"] if r["tick"] is not None]
+    assert len(final) == 1 and rows[-1]["tick"] == final[0]  # the whole profile, with its chosen point, last
+    growing = [r["tick"] for r in rows[:-1]]
+    assert all(b - a >= 29 for a, b in zip(growing, growing[1:]))

@@ -55,6 +55,7 @@ EVENT_LEVELS = {"crashed": "CRITICAL", "halted": "WARN", "failed": "WARN"}
 NODE_RADIUS = 14.0  # tree graph nodes, in the graph's units (nodes are X_STEP apart)
 STATUS, FEEDBACK = attrgetter("status"), attrgetter("feedback_message")
 PROFILE_HEIGHT = 0.4  # the load profile is drawn this high for its span (a 2-D view keeps aspect)
+SCAN_PERIOD = 1.0  # s of cell time between two drawings of a load scan in progress
 JPEG_QUALITY = 85  # camera frames: about 13 kB each at 320x240, 0.15 ms to encode
 
 
@@ -97,7 +98,8 @@ class RunRecorder:
         self._seen: tuple[list, list] = ([], [])  # every node's status and feedback at the last tick
         self._valid: dict[str, Block] = {}
         self._origins: dict[str, np.ndarray | None] = {f: None for f in FINGERS}
-        self._element = self._profile = None
+        self._element = self._profile = self._scan = None
+        self._next_scan, self._scan_drawn = 0.0, 0  # cell time of the next drawing of the scan, samples drawn
         self._design = design
         self._events = events
         self._events_read = 0
@@ -226,18 +228,34 @@ class RunRecorder:
             self._element = element
             self._at(tick, now, "task/element", rr.TextLog(
                 f"element {element.get('id')} on plate {element.get('plate')}" if element else "no element"))
+        element_id = (element or {}).get("id", "element")
+        scan = storage.get(keys.LOAD_SCAN)
+        if scan is not self._scan:
+            self._scan, self._scan_drawn = scan, 0
+        if scan is not None and len(scan["position"]) > self._scan_drawn and now >= self._next_scan:
+            self._scan_drawn, self._next_scan = len(scan["position"]), now + SCAN_PERIOD
+            self._log_scan(tick, now, scan, element_id)
         profile = storage.get(keys.LOAD_PROFILE)
         if profile is not None and profile is not self._profile:
             self._profile = profile
-            self._log_profile(tick, now, profile, (element or {}).get("id", "element"))
+            self._log_profile(tick, now, profile, element_id)
+            if scan is not None:  # the whole scan is drawn now
+                self._scan_drawn = len(scan["position"])
+
+    def _log_scan(self, tick: int, now: float, scan: dict, element: str) -> None:
+        """The samples of a load scan so far, drawn as the profile's load line grows."""
+        x = np.asarray(scan["position"], float)
+        loads = np.asarray(scan["load"][:len(x)], float)
+        scale = _profile_scale(loads)
+        self._at(tick, now, f"task/load_profile/{element}/load",
+                 rr.LineStrips2D([np.c_[x, loads * scale]], colors=[(150, 150, 150)]))
 
     def _log_profile(self, tick: int, now: float, profile: dict, element: str) -> None:
         """The scan's load along the plate (x: m along the span; y: load scaled to the drawing's
         height, with the peak's value in its label) and the chosen point."""
         x = np.asarray(profile["position"], float)
         loads, smoothed = np.asarray(profile["load"], float), np.asarray(profile["smoothed"], float)
-        top = max(float(np.max(np.abs(loads))) if loads.size else 0.0, 1e-9)
-        scale = -PROFILE_HEIGHT / top  # image y points down
+        scale = _profile_scale(loads)
         base = f"task/load_profile/{element}"
         self._at(tick, now, f"{base}/load", rr.LineStrips2D([np.c_[x, loads * scale]], colors=[(150, 150, 150)]))
         self._at(tick, now, f"{base}/smoothed", rr.LineStrips2D([np.c_[x, smoothed * scale]], colors=[(70, 130, 230)]))
@@ -385,6 +403,12 @@ class RunRecorder:
                 guard.observers.remove(self.command)
         self.stream.flush()
         self.stream.disconnect()
+
+
+def _profile_scale(loads: np.ndarray) -> float:
+    """Drawing units per unit of load: the largest load drawn PROFILE_HEIGHT high (image y points down)."""
+    top = max(float(np.max(np.abs(loads))) if loads.size else 0.0, 1e-9)
+    return -PROFILE_HEIGHT / top
 
 
 def _command_text(what: str, args: tuple) -> str:
