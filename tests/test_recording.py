@@ -4,6 +4,7 @@ recording, and `--no-record`."""
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 import signal
@@ -166,7 +167,7 @@ def test_no_record_writes_no_recording(tmp_path):
 
 
 def test_the_load_profile_grows_during_the_scan(assembly_run):
-    summary, _, rec = assembly_run
+    _, _, rec = assembly_run
     rows = [r for r in rec["task/load_profile/E1/load"] if r["tick"] is not None]
     lengths = [len(r["LineStrips2D:strips"][0]) for r in rows]
     assert len(rows) >= 10  # drawn about once a second of cell time while the scan goes
@@ -174,4 +175,4 @@ def test_the_load_profile_grows_during_the_scan(assembly_run):
     final = [r["tick"] for r in rec["task/load_profile/E1/best"] if r["tick"] is not None]
     assert len(final) == 1 and rows[-1]["tick"] == final[0]  # the whole profile, with its chosen point, last
     growing = [r["tick"] for r in rows[:-1]]
-    assert all(b - a >= 29 for a, b in zip(growing, growing[1:]))
+    assert all(b - a >= 29 for a, b in itertools.pairwise(growing))
