@@ -35,6 +35,8 @@ def test_the_fitted_model_is_the_one_signals_mode_ships(hold_recording):
     assert model.centroid_px == pytest.approx(shipped.centroid_px, rel=0.5)
     assert 0.2 <= model.lag_alpha <= 1.0 and model.slip_floor < 0.01
     assert {r["run"] for r in rows[:-1]} == {"hold.yaml", "all (fitted model)"}
+    fitted = rows[-2]  # the pipeline's errors persist from tick to tick; the bench reports how much
+    assert fitted["noise_corr"] > 0.9 and 0.5 < fitted["lossy_hold"] <= 1.0 and 0.0 < fitted["object_corr"] < 1.0
 
 
 def test_the_bench_writes_its_tables_and_model(tmp_path, monkeypatch):

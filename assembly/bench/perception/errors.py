@@ -3,17 +3,20 @@ pixel mode, measured against the scene's truth, and the compact error model fitt
 signals mode applies (`drivers/sim/models/pipeline_errors.py`).
 
 Demo trees run in pixel mode (`recording.record`); every tick compares the pipeline's state with
-the truth it was rendered from:
-- markers: position noise on still ticks (std of the error after removing each marker's bias),
-  the first-order lag a of the marker filter (y += a (truth - y), fitted on the whole run), the
-  share of markers not tracked, and how it concentrates: the share of markers lost on more than
-  10 % of ticks and how often those are lost;
+the truth it was rendered from (the lag-1 correlations and `lossy_hold` are reported beside the
+fitted model, which draws its errors afresh every tick: signals mode does not carry them yet):
+- markers: position noise on still ticks (std of the error after removing each marker's bias)
+  and its lag-1 correlation, the first-order lag a of the marker filter (y += a (truth - y),
+  fitted on the whole run), the share of markers not tracked, and how it concentrates: the share
+  of markers lost on more than 10 % of ticks, how often those are lost and how often one lost is
+  still lost on the next tick;
 - object: misses and false detections, area as a share of the true area and its noise, centroid
-  and angle noise;
+  and angle noise, and the lag-1 correlation of the area's noise;
 - slip: the pipeline's slip against the image motion the scene causes (object texture sliding,
   the object moving or turning in the image, the markers moving), fitted as
   slip = gain * area * min(motion, saturation), the rest as a noise floor; the delay of the
-  first tick over half the fitted value after a true slip starts.
+  first tick over half the fitted value after a true slip starts, and the lag-1 correlation of
+  the slip's relative noise.
 """
 
 from __future__ import annotations
@@ -43,18 +46,22 @@ def _series(ticks: list[Tick]):
 
 
 def marker_errors(ticks: list[Tick]) -> dict:
-    """Noise on still ticks, lag of the filter, share of markers lost."""
+    """Noise on still ticks and its lag-1 correlation, lag of the filter, markers lost and how long."""
     truth, pipe, valid = _series(ticks)
     moved = np.abs(np.diff(truth, axis=0)).max(axis=(1, 2))
     still = np.r_[False, moved < 1e-3]
     still &= np.r_[False, still[:-1]]  # still for two ticks: the filter has settled
     err = pipe - truth
-    noise = 0.0
+    noise, corr = 0.0, 0.0
     if still.sum() > 5:
         e = err[still]
         e = e - e.mean(axis=0, keepdims=True)
         ok = valid[still]
         noise = float(np.sqrt((e[ok] ** 2).mean()))
+        pairs = (still[1:] & still[:-1])[np.flatnonzero(still)[1:] - 1]  # consecutive still ticks
+        both = ok[1:] & ok[:-1] & pairs[:, None]
+        if both.sum() > 5:
+            corr = float((e[1:] * e[:-1])[both].sum() / np.sqrt((e[1:][both] ** 2).sum() * (e[:-1][both] ** 2).sum()))
     best = (np.inf, 1.0)
     for a in np.linspace(0.1, 1.0, 19):
         y = truth[0].copy()
@@ -65,8 +72,11 @@ def marker_errors(ticks: list[Tick]) -> dict:
         best = min(best, (sq, float(a)))
     loss = 1.0 - valid.mean(axis=0)  # per marker
     lossy = loss > 0.1
-    return {"noise_px": noise, "lag_alpha": best[1], "dropout": float(loss.mean()),
-            "lossy_share": float(lossy.mean()), "lossy_rate": float(loss[lossy].mean()) if lossy.any() else 0.0}
+    lost = ~valid[:, lossy]
+    held = float((lost[1:] & lost[:-1]).sum() / lost[:-1].sum()) if lost[:-1].any() else 0.0
+    return {"noise_px": noise, "noise_corr": corr, "lag_alpha": best[1], "dropout": float(loss.mean()),
+            "lossy_share": float(lossy.mean()), "lossy_rate": float(loss[lossy].mean()) if lossy.any() else 0.0,
+            "lossy_hold": held}
 
 
 def object_errors(ticks: list[Tick]) -> dict:
@@ -77,15 +87,26 @@ def object_errors(ticks: list[Tick]) -> dict:
     out = {"miss": float((~seen[present]).mean()) if present.any() else 0.0,
            "false": float(seen[~present].mean()) if (~present).any() else 0.0}
     if both.sum() < 5:
-        return {**out, "area_scale": 1.0, "area_noise": 0.0, "centroid_px": 0.0, "angle_rad": 0.0}
+        return {**out, "area_scale": 1.0, "area_noise": 0.0, "centroid_px": 0.0, "angle_rad": 0.0,
+                "object_corr": 0.0}
     area = np.array([(t.contact.obj.area, t.state.obj.area) for t, b in zip(ticks, both) if b])
     scale = float(np.median(area[:, 1] / area[:, 0]))
+    residual = area[:, 1] - scale * area[:, 0]
     cen = np.array([(t.state.obj.centroid - t.contact.obj.centroid) for t, b in zip(ticks, both) if b]) * IMAGE_SCALE
     ang = np.array([t.state.obj.orientation - t.contact.obj.orientation for t, b in zip(ticks, both) if b])
     ang = (ang + np.pi / 2) % np.pi - np.pi / 2  # an axis: modulo pi
     return {**out, "area_scale": scale, "area_noise": float(np.std(area[:, 1] - scale * area[:, 0])),
             "centroid_px": float(np.sqrt(((cen - cen.mean(axis=0)) ** 2).sum(axis=1).mean())),
-            "angle_rad": float(np.std(ang))}
+            "angle_rad": float(np.std(ang)), "object_corr": lag1(residual, both)}
+
+
+def lag1(x: np.ndarray, kept: np.ndarray) -> float:
+    """Lag-1 correlation of `x` (mean removed), the values of the ticks `kept` marks, over the
+    pairs of them on neighbouring ticks."""
+    x = x - x.mean()
+    neighbours = kept[np.flatnonzero(kept)[1:] - 1]
+    a, b = x[:-1][neighbours], x[1:][neighbours]
+    return float((a * b).sum() / np.sqrt((a * a).sum() * (b * b).sum())) if a.size > 5 and a.any() else 0.0
 
 
 def slip_samples(ticks: list[Tick]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -151,6 +172,7 @@ def measure(recordings: list[Recording]) -> tuple[list[dict], PipelineErrors]:
     gain, sat, floor = fit_slip(area, motion, pipe)
     expected = gain * area * np.minimum(motion, sat)
     delay, onsets, missed = slip_delay(truth, pipe, expected)
+    on = expected > 0.01
     still = motion < 1e-3
     model = PipelineErrors(
         noise_px=float(np.median([m["noise_px"] for m in markers])),
@@ -166,14 +188,18 @@ def measure(recordings: list[Recording]) -> tuple[list[dict], PipelineErrors]:
         slip_noise=relative_noise(pipe, expected),
         slip_delay=round(delay))
     rows.append({"run": "all (fitted model)", "finger": "both", "status": "", "ticks": len(pipe),
-                 "noise_px": model.noise_px, "lag_alpha": model.lag_alpha,
+                 "noise_px": model.noise_px, "noise_corr": float(np.median([m["noise_corr"] for m in markers])),
+                 "lag_alpha": model.lag_alpha,
                  "dropout": float(np.mean([m["dropout"] for m in markers])), "lossy_share": model.lossy_share,
                  "lossy_rate": model.lossy_rate,
+                 "lossy_hold": float(np.mean([m["lossy_hold"] for m in markers if m["lossy_share"]] or [0.0])),
                  "miss": model.object_miss, "false": float(np.mean([o["false"] for o in objects])),
                  "area_scale": model.area_scale, "area_noise": model.area_noise,
-                 "centroid_px": model.centroid_px, "angle_rad": model.angle_rad})
+                 "centroid_px": model.centroid_px, "angle_rad": model.angle_rad,
+                 "object_corr": float(np.median([o["object_corr"] for o in objects]))})
     slip_row = {"slip gain": gain, "saturation px/frame": sat, "floor (still)": floor,
-                "noise std": model.slip_noise, "delay ticks": delay, "true onsets": onsets, "missed": missed,
+                "noise std": model.slip_noise, "noise lag-1 corr": lag1(pipe[on] / expected[on] - 1.0, on),
+                "delay ticks": delay, "true onsets": onsets, "missed": missed,
                 "still p95": float(np.percentile(pipe[still], 95)) if still.any() else 0.0,
                 "moving p95": float(np.percentile(pipe[~still], 95)) if (~still).any() else 0.0}
     return rows + [slip_row], model
