@@ -163,6 +163,12 @@ def _write_or_print(text: str, out: str | None) -> None:
 
 
 def cmd_export(args) -> int:
+    if (args.format or ("mcap" if Path(args.tree).is_dir() or not Path(args.tree).suffix else "btcpp")) == "mcap":
+        from assembly.observe.mcap_export import export_mcap
+
+        out, counts = export_mcap(Path(args.tree), Path(args.out) if args.out else None)
+        print(f"wrote {out}: {sum(counts.values())} messages on {len(counts)} topics")
+        return 0
     from assembly.btcpp import export_tree
 
     _write_or_print(export_tree(args.tree, Path(args.out).parent if args.out else Path("."), args.subtree_models),
@@ -329,10 +335,12 @@ def parser() -> argparse.ArgumentParser:
     j.add_argument("--out", help="write to this file instead of stdout")
     j.set_defaults(func=cmd_schema)
 
-    ex = sub.add_parser("export", help="write a tree as BehaviorTree.CPP v4 XML, for Groot2 (docs/btcpp.md)")
-    ex.add_argument("tree")
-    ex.add_argument("--format", choices=("btcpp",), default="btcpp", help="output format (default: btcpp)")
-    ex.add_argument("-o", "--out", help="file to write (default: stdout)")
+    ex = sub.add_parser("export", help="write a tree as BehaviorTree.CPP v4 XML, for Groot2 (docs/btcpp.md), or a "
+                                       "run directory as an MCAP file, for Foxglove and ROS 2 tools")
+    ex.add_argument("tree", metavar="TREE|RUN_DIR")
+    ex.add_argument("--format", choices=("btcpp", "mcap"), default=None,
+                    help="output format (default: mcap for a run directory or a path with no suffix, else btcpp)")
+    ex.add_argument("-o", "--out", help="file to write (default: stdout; mcap: RUN_DIR/recording.mcap)")
     ex.add_argument("--subtree-models", action="store_true",
                     help="also declare the subtrees' ports in <TreeNodesModel> as Groot2 does (not valid against "
                          "BT.CPP's XSD)")
