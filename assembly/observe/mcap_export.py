@@ -53,7 +53,7 @@ def export_mcap(run_dir: Path, out: Path | None = None) -> tuple[Path, dict[str,
     try:
         for session in files:
             found = sorted(((t, topic, schema, json.dumps(message).encode())  # kept as JSON bytes, not dicts
-                            for t, topic, schema, message in _messages(_read(session), summary, offset)),
+                            for t, topic, schema, message in _messages(read_recording(session), summary, offset)),
                            key=lambda m: m[0])
             if found:
                 offset = found[-1][0] + 1
@@ -64,14 +64,6 @@ def export_mcap(run_dir: Path, out: Path | None = None) -> tuple[Path, dict[str,
     counts = _write(out, messages, {"run_dir": str(run_dir), "recordings": ", ".join(f.name for f in files),
                                     "summary": json.dumps(summary)})
     return out, counts
-
-
-def _read(path: Path) -> dict[str, list[dict]]:
-    try:
-        return read_recording(path)
-    except RuntimeError as exc:  # Rerun's reader on a file that is not a recording at all
-        raise FvtreeError(f"not a readable recording ({exc})", str(path),
-                          hint="export a run directory that `fvtree run` made, under runs/") from None
 
 
 def _summary(run_dir: Path) -> dict:

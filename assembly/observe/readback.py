@@ -22,8 +22,9 @@ def read_recording(path: str | Path) -> dict[str, list[dict[str, Any]]]:
         with warnings.catch_warnings():  # a killed run's file has no footer: it is read whole, as wanted
             warnings.filterwarnings("ignore", message="RRD file has no footer")
             chunks = RrdReader(Path(path)).stream().to_chunks()
-    except (OSError, ValueError) as exc:
-        raise FvtreeError(f"not a readable recording ({exc})", str(path)) from None
+    except (OSError, ValueError, RuntimeError) as exc:  # RuntimeError: Rerun's reader on a file that is no recording
+        raise FvtreeError(f"not a readable recording ({exc})", str(path),
+                          hint="open a run directory that `fvtree run` made, under runs/") from None
     rows: dict[str, list[dict[str, Any]]] = defaultdict(list)
     for chunk in chunks:
         batch = chunk.to_record_batch()
