@@ -3,7 +3,7 @@ before every tick, and a clean slate before every run."""
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import py_trees
 from py_trees.blackboard import Blackboard

@@ -7,8 +7,8 @@ import importlib
 import json
 import logging
 import sys
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 from assembly.design_link.commands import add_design_link_commands, add_link_options
 from assembly.observe import IMAGE_HZ
@@ -422,7 +422,7 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM outside a tick loop (which halts the run itself)
         print("interrupted", file=sys.stderr)
         return 130
-    except Exception as exc:  # noqa: BLE001 - last resort: one line unless --debug
+    except Exception as exc:  # last resort: one line unless --debug
         if args.debug:
             raise
         if isinstance(exc, OSError) and exc.filename is not None:  # a path given on the command line

@@ -373,8 +373,8 @@ def subtree_params(raw: Any, where: Located, name: str, errors: list[TreeError])
             continue
         extra = set(decl) - set(PARAM_FIELDS)
         if extra:
-            errors.append(TreeError(f"param {pname!r}: unknown field {sorted(extra)[0]!r}", where.file,
-                                    line, f"subtrees/{name}", did_you_mean(sorted(extra)[0], PARAM_FIELDS)))
+            errors.append(TreeError(f"param {pname!r}: unknown field {min(extra)!r}", where.file,
+                                    line, f"subtrees/{name}", did_you_mean(min(extra), PARAM_FIELDS)))
         param = Param(ptype, decl.get("doc", ""), decl.get("default", REQUIRED), decl.get("unit", ""))
         if not param.required:
             try:

@@ -26,7 +26,7 @@ class TransitionLog:
         self._last = {path: Status.INVALID for path, _ in self._nodes}
         self._node_objects = [node for _, node in self._nodes]
         self._seen = [Status.INVALID] * len(self._nodes)  # every node's status at the last record
-        self._file = open(path, "a")
+        self._file = open(path, "a")  # noqa: SIM115 - open for the whole run; close() closes it
 
     def __call__(self, tree: py_trees.trees.BehaviourTree) -> None:
         self.record(tree.count)

@@ -31,9 +31,10 @@ Rules for skill authors:
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from types import SimpleNamespace
-from typing import Any, Callable, ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 import py_trees
@@ -141,7 +142,7 @@ class Skill(py_trees.behaviour.Behaviour):
         """Validate given params against PARAMS and fill defaults; raises KeyError/ValueError."""
         unknown = set(given) - set(cls.PARAMS)
         if unknown:
-            raise KeyError(sorted(unknown)[0])
+            raise KeyError(min(unknown))
         out = {}
         for key, decl in cls.PARAMS.items():
             if key in given:

@@ -3,8 +3,8 @@ world: everything a tree acts on. Cell files (`drivers/cells/*.yaml`) say how to
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 from drivers.clock import SimClock, WallClock
 from drivers.protocols import Camera, Gripper, PerceptionSource, World

@@ -4,8 +4,9 @@ dataclasses filled from them, with errors that name the file, line and dotted fi
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 from perception.errors import FvtreeError, did_you_mean
 from perception.yaml_source import Located, SourceError, load_file

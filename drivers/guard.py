@@ -13,7 +13,8 @@ import logging
 import math
 import reprlib
 import threading
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -124,7 +125,7 @@ class Guard:
             observe(self.device, "stop", ())
         try:
             self.inner.stop()
-        except Exception as exc:
+        except Exception as exc:  # noqa: BLE001 - whatever a driver raises is a fault, never a crash past the gate
             self._latch(f"driver fault during stop: {describe(exc)}")
 
     # --- commands and reads -----------------------------------------------------------------------
@@ -149,7 +150,7 @@ class Guard:
             observe(self.device, what, args)
         try:
             command(*args)
-        except Exception as exc:
+        except Exception as exc:  # noqa: BLE001 - as above
             self.trip(f"driver fault during {what}: {describe(exc)}")
 
     def _read(self, what: str, read: Callable[[], Any], fallback: Any, check: Callable[[str, Any], Any]) -> Any:
@@ -160,7 +161,7 @@ class Guard:
         except Refused as exc:
             self.trip(f"bad reading: {exc}")
             return _copy(self._last.get(what, fallback))
-        except Exception as exc:
+        except Exception as exc:  # noqa: BLE001 - as above
             self.trip(f"driver fault reading {what}: {describe(exc)}")
             return _copy(self._last.get(what, fallback))
         self._last[what] = _copy(value)

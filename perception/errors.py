@@ -5,7 +5,7 @@ every package can raise it."""
 from __future__ import annotations
 
 import difflib
-from typing import Iterable
+from collections.abc import Iterable
 
 
 class FvtreeError(Exception):

@@ -60,7 +60,7 @@ def test_sessions_differ_in_their_substances_and_skin_and_repeat_with_their_seed
 
 
 def test_a_model_is_tested_on_another_session_and_the_classifiers_differ(stirred, another_session):
-    model, report = train_stir(stirred, test_session=another_session)
+    _, report = train_stir(stirred, test_session=another_session)
     assert report["tested_on"] == "another session"
     assert report["train_trials"] == 48 and report["test_trials"] == 24
     f1 = {name: result["f1"] for name, result in report["models"].items()}

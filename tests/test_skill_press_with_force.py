@@ -4,6 +4,8 @@ scale feels the target."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -67,7 +69,7 @@ def test_press_with_force_halted_stops_the_arm():
 @pytest.mark.parametrize("target", [2.0, 8.0])
 def test_the_scale_feels_the_target(target):
     cell = load_cell("sim", 30, "press", {})
-    text = open("trees/press_with_force.yaml").read().replace("target: 5.0", f"target: {target}")
+    text = Path("trees/press_with_force.yaml").read_text().replace("target: 5.0", f"target: {target}")
     harness = TreeHarness.from_text(text, cell=cell, name="trees/press_with_force.yaml")
     assert harness.run_until_done(2000).name == "SUCCESS"
     assert cell.world.force == pytest.approx(target, abs=0.3)

@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 import socket
 import threading
-from typing import Callable
+from collections.abc import Callable
 
 Handler = Callable[[str, list[str]], dict]
 
@@ -25,7 +25,7 @@ def serve(host: str, port: int, handler: Handler) -> socket.socket:
                     continue
                 try:
                     reply = handler(words[0], words[1:])
-                except Exception as exc:  # report, never kill the emulator
+                except Exception as exc:  # noqa: BLE001 - report, never kill the emulator
                     reply = {"ok": False, "error": f"{type(exc).__name__}: {exc}"}
                 f.write((json.dumps(reply) + "\n").encode())
                 f.flush()

@@ -17,9 +17,9 @@ class EmulatorProcess:
     def __init__(self, module: str, args: list[str], ready_timeout: float = 15.0):
         self.module, self.args, self.ready_timeout = module, args, ready_timeout
         self.proc: subprocess.Popen | None = None
-        self._log = tempfile.TemporaryFile()
+        self._log = tempfile.TemporaryFile()  # noqa: SIM115 - the emulator's output, kept until stop()
 
-    def start(self) -> "EmulatorProcess":
+    def start(self) -> EmulatorProcess:
         """Spawn the emulator and block until it prints `ready` (bounded by `ready_timeout`)."""
         env = dict(os.environ, PYTHONUNBUFFERED="1")
         self.proc = subprocess.Popen([sys.executable, "-m", self.module, *self.args],
@@ -58,7 +58,7 @@ class EmulatorProcess:
         self.proc.stdout.close()
         self.proc = None
 
-    def __enter__(self) -> "EmulatorProcess":
+    def __enter__(self) -> EmulatorProcess:  # noqa: PYI034 - typing.Self needs Python 3.11
         return self.start()
 
     def __exit__(self, *exc) -> None:

@@ -57,7 +57,7 @@ class MjpegServer:
         server = self
 
         class Handler(BaseHTTPRequestHandler):
-            def do_GET(self):  # noqa: N802 (http.server's naming)
+            def do_GET(self):  # http.server's naming
                 if self.path != "/stream.mjpg":
                     self.send_error(404, "the stream is at /stream.mjpg")
                     return
@@ -79,7 +79,7 @@ class MjpegServer:
         index, next_at = 0, time.monotonic()
         try:
             while self.drop_after is None or index < self.drop_after:
-                ok, jpg = cv2.imencode(".jpg", self.render(index, self.size),
+                _, jpg = cv2.imencode(".jpg", self.render(index, self.size),
                                        [cv2.IMWRITE_JPEG_QUALITY, 90])
                 out.write(f"--{BOUNDARY}\r\nContent-Type: image/jpeg\r\n"
                           f"Content-Length: {len(jpg)}\r\n\r\n".encode() + jpg.tobytes() + b"\r\n")
@@ -90,7 +90,7 @@ class MjpegServer:
         except (BrokenPipeError, ConnectionResetError):
             pass
 
-    def start(self) -> "MjpegServer":
+    def start(self) -> MjpegServer:
         threading.Thread(target=self.httpd.serve_forever, name="mjpeg", daemon=True).start()
         return self
 

@@ -54,7 +54,6 @@ class RobotiqEmulator:
             self.model.write(self.commands)
         if start_address == self.status_address:
             registers[0:3] = self.model.registers()
-        return None
 
     def trace(self, sending: bool, data: bytes) -> bytes:
         if not sending:

@@ -119,10 +119,9 @@ class RobotiqModel:
             stop_at = (1.0 - squeezed / s.stroke) * 255
         step = rate * dt
         if target > self.position:  # closing
-            if stop_at is not None and self.position <= stop_at < target:
-                if self.position + step >= stop_at:
-                    self.position, self._moving, self.obj = stop_at, False, OBJ_CONTACT_CLOSING
-                    return
+            if stop_at is not None and self.position <= stop_at < target and self.position + step >= stop_at:
+                self.position, self._moving, self.obj = stop_at, False, OBJ_CONTACT_CLOSING
+                return
             self.position = min(self.position + step, target)
         else:
             self.position = max(self.position - step, target)

@@ -12,8 +12,8 @@ element follows from the finger opening the Robotiq reports and the pad stiffnes
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 

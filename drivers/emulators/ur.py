@@ -159,7 +159,7 @@ class UrEmulator:
             while not self.stopping.is_set():
                 try:
                     chunk = conn.recv(65536)
-                except socket.timeout:
+                except TimeoutError:
                     chunk = None
                 if chunk:
                     buf += chunk

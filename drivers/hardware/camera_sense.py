@@ -6,7 +6,7 @@ dressed as new."""
 from __future__ import annotations
 
 import time
-from typing import Callable
+from collections.abc import Callable
 
 from drivers.camera_frames import LatestFrames
 from drivers.hardware.camera import OpenCvCamera

@@ -81,7 +81,7 @@ class RobotiqStatus:
     current: int  # gCU, about 10 mA per count
 
     @classmethod
-    def decode(cls, regs: list[int]) -> "RobotiqStatus":
+    def decode(cls, regs: list[int]) -> RobotiqStatus:
         b0 = regs[0] >> 8
         return cls(bool(b0 & 0x01), bool(b0 & 0x08), (b0 >> 4) & 0x03, (b0 >> 6) & 0x03,
                    (regs[1] >> 8) & 0x0F, regs[1] & 0xFF, regs[2] >> 8, regs[2] & 0xFF)
@@ -188,7 +188,7 @@ class RobotiqGripper:
         return None
 
     def _count(self, width: float) -> int:
-        return int(round(min(max(1.0 - float(width) / self.max_width, 0.0), 1.0) * 255))
+        return round(min(max(1.0 - float(width) / self.max_width, 0.0), 1.0) * 255)
 
     @staticmethod
     def _blocking_fault(s: RobotiqStatus) -> bool:
@@ -198,4 +198,4 @@ class RobotiqGripper:
 def _scale(value: float, span: tuple[float, float]) -> int:
     """Map a physical value onto a 0..255 register byte, clamped to the device's range."""
     lo, hi = span
-    return int(round(min(max((float(value) - lo) / (hi - lo), 0.0), 1.0) * 255))
+    return round(min(max((float(value) - lo) / (hi - lo), 0.0), 1.0) * 255)

@@ -12,9 +12,10 @@ world (drivers/cells/emulated_shadow.yaml) is built by drivers/emulators/shadow.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from drivers.cell import Cell
 from drivers.cell_builders import CellRequest

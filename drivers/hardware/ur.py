@@ -14,8 +14,9 @@ import logging
 import queue
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -76,7 +77,7 @@ class _Worker:
         while (job := self._jobs.get()) is not None:
             try:
                 job.result = job.fn(*job.args)
-            except BaseException as exc:  # handed to the waiting caller
+            except BaseException as exc:  # noqa: BLE001 - handed to the waiting caller, who re-raises it
                 job.error = exc
             job.done.set()
 
@@ -344,7 +345,7 @@ class UrArm:
         while self._running:
             try:
                 snap = self._read_state()
-            except Exception as exc:  # a getter throwing after a link loss must not kill the monitor
+            except Exception as exc:  # noqa: BLE001 - a getter throwing after a link loss must not kill the monitor
                 self._latch(f"UR {self.config.host}: lost RTDE link - cannot read the receive "
                             f"interface ({exc}); restart the cell to reconnect")
                 time.sleep(period)

@@ -54,7 +54,7 @@ class Dashboard:
         self._file.close()
         self._sock.close()
 
-    def __enter__(self) -> "Dashboard":
+    def __enter__(self) -> Dashboard:  # noqa: PYI034 - typing.Self needs Python 3.11
         return self
 
     def __exit__(self, *exc) -> None:

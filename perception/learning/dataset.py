@@ -59,7 +59,7 @@ class Recording:
         return path
 
     @classmethod
-    def load(cls, path: str | Path) -> "Recording":
+    def load(cls, path: str | Path) -> Recording:
         """Read a recording; ValueError saying why if it is not one or its features differ."""
         try:
             data = np.load(path, allow_pickle=False)
@@ -75,7 +75,7 @@ class Recording:
         return cls(header, data["t"], data["run"], data["segment"], data["features"].astype(float), labels)
 
     @classmethod
-    def concatenate(cls, parts: list["Recording"], header: dict) -> "Recording":
+    def concatenate(cls, parts: list[Recording], header: dict) -> Recording:
         """Join recordings of several runs; segments are renumbered so they stay distinct."""
         offset, segments = 0, []
         for i, part in enumerate(parts):

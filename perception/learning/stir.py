@@ -100,7 +100,7 @@ def classifiers(seed: int = 0) -> dict:
 
 def split(y: np.ndarray, seed: int = 0, test_trials: int = TEST_TRIALS) -> tuple[np.ndarray, np.ndarray]:
     """Indices (train, test), stratified by substance; 48 test trials as in the paper (or 40 %)."""
-    n_test = test_trials if len(y) > test_trials * 1.5 else max(len(set(y)), int(round(0.4 * len(y))))
+    n_test = test_trials if len(y) > test_trials * 1.5 else max(len(set(y)), round(0.4 * len(y)))
     return train_test_split(np.arange(len(y)), test_size=n_test, stratify=y, random_state=seed)
 
 

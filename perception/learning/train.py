@@ -14,10 +14,10 @@ from perception.learning.models import SUFFIX, ModelError
 
 def format_force_report(report: dict) -> str:
     noise = report.get("scale_noise_std")
-    lines = [f"ForceLearn (kernel ridge, RBF; alpha {report['hyper_parameters']['alpha']}, "
-             f"gamma {report['hyper_parameters']['gamma']} by grouped CV)",
-             f"  presses {report['presses']}: {report['train_ticks']} training ticks, "
-             f"{report['test_ticks']} test ticks (every 4th press held out)",
+    lines = [(f"ForceLearn (kernel ridge, RBF; alpha {report['hyper_parameters']['alpha']}, "
+              f"gamma {report['hyper_parameters']['gamma']} by grouped CV)"),
+             (f"  presses {report['presses']}: {report['train_ticks']} training ticks, "
+              f"{report['test_ticks']} test ticks (every 4th press held out)"),
              f"  MSE {report['mse']:.4f} N^2   RMSE {report['rmse']:.3f} N   R2 {report['r2']:.4f}  (against the scale)"]
     if "rmse_vs_true_force" in report:
         lines.append(f"  RMSE against the true force {report['rmse_vs_true_force']:.3f} N"
@@ -29,8 +29,8 @@ def format_force_report(report: dict) -> str:
 
 
 def format_stir_report(report: dict) -> str:
-    lines = [f"StirLearn: {report['train_trials']} training / {report['test_trials']} test trials, "
-             f"tested on {report['tested_on']}"]
+    lines = [(f"StirLearn: {report['train_trials']} training / {report['test_trials']} test trials, "
+              f"tested on {report['tested_on']}")]
     for name, result in report["models"].items():
         marker = " (saved)" if name == report["saved"] else ""
         lines.append(f"\n{name}{marker}: f1 {result['f1']:.3f}\n{result['table']}")

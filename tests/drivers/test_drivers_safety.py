@@ -14,7 +14,7 @@ from drivers.safety import SafeArm, SafetyLimits
 from drivers.sim.devices.arm import KinematicArm
 
 HOME = np.array([0.0, 0.0, 0.5, np.pi, 0.0, 0.0])
-BOX = dict(workspace_min=[-0.5, -0.5, 0.1], workspace_max=[0.5, 0.5, 0.8])
+BOX = {"workspace_min": [-0.5, -0.5, 0.1], "workspace_max": [0.5, 0.5, 0.8]}
 
 
 def make(clock=None, **limits) -> tuple[SafeArm, KinematicArm, SimClock]:
@@ -85,7 +85,7 @@ def test_twist_never_drives_out_through_a_face_of_the_box():
 
 
 def test_force_above_the_cap_stops_and_latches():
-    safe, arm, clock = make(max_force=50.0)
+    safe, arm, _ = make(max_force=50.0)
     safe.speed_linear(np.array([0, 0, -0.01, 0, 0, 0]))
     arm.external_wrench[:] = [0, 0, 80.0, 0, 0, 0]
     assert "force limit: 80.0 N > 50.0 N" in safe.supervise()
@@ -116,11 +116,11 @@ def test_stale_arm_state_stops_the_arm():
 
 
 def test_driver_fault_stops_and_a_raising_driver_does_not_crash_the_tick():
-    safe, arm, clock = make()
+    safe, arm, _ = make()
     arm.fault_text = "protective stop"
     assert "driver fault: protective stop" in safe.supervise()
 
-    safe, arm, clock = make()
+    safe, arm, _ = make()
 
     def broken(*_):
         raise DriverFault("link lost")
