@@ -20,7 +20,7 @@ from drivers.sim.devices.arm import KinematicArm
 from drivers.sim.devices.gripper import SimGripper
 from drivers.sim.scenes import build_world, world_settings
 
-FIELDS = {"kind", "name", "home", "safety", "supervision", "gripper", "sensor", "world", "perception"}
+FIELDS = {"kind", "name", "home", "safety", "supervision", "gripper", "sensor", "world", "perception", "pixel_workers"}
 PERCEPTION_MODES = ("signals", "pixels")
 
 
@@ -34,6 +34,10 @@ def build_sim_cell(path: Path, data: dict, request: CellRequest) -> Cell:
     mode = request.perception or data.get("perception", "signals")
     if mode not in PERCEPTION_MODES:
         raise CellFileError(path, "perception", f"unknown mode {mode!r}; expected signals or pixels")
+    workers = data.get("pixel_workers")  # pixel mode's fingers in parallel processes (None: with 2+ cores)
+    if workers is not None and not isinstance(workers, bool):
+        raise CellFileError(path, "pixel_workers", f"must be true or false (or left out: true with two cores "
+                                                   f"or more), got {workers!r}")
     clock = SimClock(1.0 / request.tick_hz)
     home = np.array(data.get("home", [0.0, 0.0, 0.5, np.pi, 0.0, 0.0]), dtype=float)
     arm = KinematicArm(clock, home)
@@ -50,5 +54,7 @@ def build_sim_cell(path: Path, data: dict, request: CellRequest) -> Cell:
             pixel_level_sense,  # rendered frames -> real pipeline
         )
 
-        sense = pixel_level_sense(world, sensors, clock, request.seed)
-    return Cell(data.get("name", "sim"), SafeArm(arm, limits, clock), SafeGripper(gripper), clock, sense, world=world)
+        sense = pixel_level_sense(world, sensors, clock, request.seed, workers=workers)
+    closers = [sense.close] if mode == "pixels" else []  # pixel mode's worker processes
+    return Cell(data.get("name", "sim"), SafeArm(arm, limits, clock), SafeGripper(gripper), clock, sense, world=world,
+                closers=closers)

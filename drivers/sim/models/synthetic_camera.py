@@ -24,7 +24,6 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from drivers.camera_frames import LatestFrames
 from drivers.clock import SimClock
 from drivers.protocols import World
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
@@ -299,53 +298,87 @@ class SyntheticFingerVision:
         return inside & rim & (hidden[iy, ix].max(axis=1) < 0.1)
 
 
+@dataclass(frozen=True)
+class FingerRig:
+    """What one fingertip's frames need in pixel mode (picklable: a worker process builds its own rig)."""
+
+    finger: str
+    origin: np.ndarray  # (N, 2) px, the markers at rest
+    marker_size: float
+    image_size: tuple[int, int]
+    seed: int  # the camera's
+    preset: str  # the pipeline configuration
+    fps: float
+
+
+class PixelFinger:
+    """One fingertip in pixel mode: its synthetic camera and the real FingerVision pipeline, calibrated
+    at start on frames with no contact, then given a colour model of a known object."""
+
+    def __init__(self, rig: FingerRig):
+        from perception.config import load_config
+        from perception.fingervision import FingerVision  # the real pipeline, as on the robot
+
+        # Small frames, one at a time: OpenCV's thread pool costs more than it gains on 320x240 images
+        # (10-20 % more CPU time per pixel-mode tick with two threads on two cores).
+        cv2.setNumThreads(1)
+        self.camera = SyntheticFingerVision(rig.origin, rig.marker_size, tuple(rig.image_size), seed=rig.seed)
+        self.pipeline = FingerVision(load_config(rig.preset, camera_fps=rig.fps), rig.finger)
+        n = self.pipeline.config.calibration.n_frames
+        self.pipeline.calibrate([self.camera.render().image for _ in range(n)])
+        # The object colour model, marked on three frames of a known object (the original's hand edit).
+        for _ in range(3):
+            sample = self.camera.render(obj=ObjectInfo(True, 0.3, np.zeros(2), 0.0))
+            self.pipeline.proximity.add_object(sample.image, sample.truth.object_mask)
+
+    def process(self, position: np.ndarray, size: np.ndarray, obj: ObjectInfo | None, shift: float,
+                stamp: float) -> tuple[TactileState, np.ndarray]:
+        """The pipeline's state of the frame showing markers at `position` and the object slid by `shift`
+        px, and that frame."""
+        image = self.camera.render(position, size, obj, shift).image
+        return self.pipeline.process(image, stamp), image
+
+
+def finger_rigs(sensors: Mapping[str, SensorModel], clock: SimClock, seed: int, preset: str) -> dict[str, FingerRig]:
+    """Each finger's rig; camera seeds follow the sensor models' (`seed * 2 + i`)."""
+    return {finger: FingerRig(finger, sensors[finger].origin, sensors[finger].marker_size,
+                              tuple(sensors[finger].image_size), seed * 2 + i, preset, 1.0 / clock.period)
+            for i, finger in enumerate(FINGERS)}
+
+
 def pixel_level_sense(world: World, sensors: Mapping[str, SensorModel], clock: SimClock, seed: int,
-                      preset: str = "fast") -> Callable[[], dict[str, TactileState]]:
+                      preset: str = "fast", workers: bool | None = None) -> Callable[[], dict[str, TactileState]]:
     """Perception source of the simulated cell that renders each finger's frame and runs the real
     FingerVision pipeline on it (calibrated at start on frames with no contact).
 
     The markers are drawn where the contact model puts them without its position noise: the
-    tracking noise comes from the image noise, as on a real sensor."""
-    from perception.config import load_config
-    from perception.fingervision import (
-        FingerVision,  # the real pipeline, as on the robot
-    )
+    tracking noise comes from the image noise, as on a real sensor. With `workers` (default: when
+    the machine has two cores or more) the fingers are processed at the same time, as a real rig
+    processes each camera on its own (`pixel_workers`); the states are the same either way. The
+    source's `close()` stops the workers."""
+    from drivers.sim.models.pixel_workers import WORKER_FINGERS, FingerWorkers, parallel_by_default
 
-    # Two small frames a tick, one after the other: OpenCV's thread pool costs more than it gains on
-    # 320x240 images (10-20 % more CPU time per pixel-mode tick with two threads on two cores).
-    cv2.setNumThreads(1)
-    fps = 1.0 / clock.period
-    cameras, pipelines, models = {}, {}, {}
-    for i, finger in enumerate(FINGERS):
-        sensor = sensors[finger]
-        models[finger] = dataclasses.replace(sensor, noise_px=0.0)
-        camera = SyntheticFingerVision(sensor.origin, sensor.marker_size, tuple(sensor.image_size),
-                                       seed=seed * 2 + i)
-        pipeline = FingerVision(load_config(preset, camera_fps=fps), finger)
-        n = pipeline.config.calibration.n_frames
-        pipeline.calibrate([camera.render().image for _ in range(n)])
-        # The object colour model, marked on three frames of a known object (the original's hand edit).
-        for _ in range(3):
-            sample = camera.render(obj=ObjectInfo(True, 0.3, np.zeros(2), 0.0))
-            pipeline.proximity.add_object(sample.image, sample.truth.object_mask)
-        cameras[finger], pipelines[finger] = camera, pipeline
-    shift = {finger: 0.0 for finger in FINGERS}
+    rigs = finger_rigs(sensors, clock, seed, preset)
+    models = {finger: dataclasses.replace(sensors[finger], noise_px=0.0) for finger in FINGERS}
     fields = {finger: _field_of(models[finger]) for finger in FINGERS}
+    shift = {finger: 0.0 for finger in FINGERS}
+    parallel = parallel_by_default() if workers is None else workers
+    fingers = FingerWorkers(PixelFinger, rigs, WORKER_FINGERS if parallel else ())
 
     def sense() -> dict[str, TactileState]:
         contacts = world.contacts()
         now = clock.now()
-        states = {}
+        frames = {}
         for finger in FINGERS:
             contact = contacts[finger]
             position, size = fields[finger](contact)
             shift[finger] += SLIP_PX_PER_UNIT * contact.slip
-            frame = cameras[finger].render(position, size, contact.obj, shift[finger])
-            states[finger] = pipelines[finger].process(frame.image, now)
-            sense.frames.keep(finger, frame.image, now)
-        return states
+            frames[finger] = (position, size, contact.obj, shift[finger], now)
+        return fingers.process(frames)
 
-    sense.frames = LatestFrames()  # for the run's recording
+    sense.frames = fingers.frames  # for the run's recording
+    sense.close = fingers.close
+    sense.processes = fingers.processes  # finger -> worker process (empty in-process)
     return sense
 
 

@@ -1,0 +1,239 @@
+"""Pixel mode's two fingertips processed at the same time, as a real FingerVision rig processes each
+camera on its own: one finger's renderer and pipeline run in a worker process while the main process
+does the other's (faster than a worker for each: the main process would only wait, and the messages
+double). A finger's frame costs ~2 ms; on two free cores a tick costs about one frame instead of two
+(3.3 instead of 4.6 ms a tick on fixed frames); on a machine other programs load it gains less.
+
+A tick sends a worker only what its frame needs (marker positions and sizes, the object, its slip
+shift, the stamp) and gets back the TactileState: the same as the in-process path's, bit for bit.
+The camera image comes back only when it is read (`frames`: the run's recording reads a few a
+second). Workers start from a clean process (`forkserver`, else `spawn`: the main process may hold
+threads), ignore Ctrl-C (the main process halts the run and closes the cell, which stops them) and
+leave when the main process is gone. A worker that dies, raises or does not answer within
+`REPLY_TIMEOUT` gives unhealthy states naming its camera from then on, never a hang.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+from collections.abc import Callable, Collection, Mapping
+from multiprocessing.connection import Connection
+from typing import Any, Protocol
+
+import numpy as np
+
+from drivers.camera_frames import LatestFrames
+from drivers.protocols import DriverFault
+from perception.state import FINGERS, ObjectInfo, TactileState
+
+# Fingers processed in a worker when the fingers run in parallel; the others stay in the main process.
+WORKER_FINGERS = ("right",)
+REPLY_TIMEOUT = 10.0  # s a tick waits for a worker's state: generous for a loaded machine
+START_TIMEOUT = 120.0  # s for a worker to start, import the pipeline and calibrate
+CLOSE_TIMEOUT = 5.0  # s a closing worker gets to leave before it is terminated
+
+Frame = tuple  # (position (N, 2), size (N,), ObjectInfo | None, slip shift px, stamp s)
+
+
+class FingerFrames(Protocol):
+    """What processes one finger's frames: renders the frame and puts it through the pipeline."""
+
+    def process(self, position: np.ndarray, size: np.ndarray, obj: ObjectInfo | None, shift: float,
+                stamp: float) -> tuple[TactileState, np.ndarray]: ...
+
+
+# Builds a finger's processor from its picklable description (a module-level class, so a worker can
+# import it: `synthetic_camera.PixelFinger` of a `FingerRig`).
+Build = Callable[[Any], FingerFrames]
+
+
+def parallel_by_default() -> bool:
+    """Fingers in parallel when this process may use a core for each."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    return cores >= 2
+
+
+def _context() -> multiprocessing.context.BaseContext:
+    """A start method that does not copy the main process's threads: forkserver (with the pipeline
+    imported once in the server, so a worker starts in milliseconds), else spawn."""
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return multiprocessing.get_context("spawn")
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload([__name__, "drivers.sim.models.synthetic_camera", "perception.fingervision"])
+    return context
+
+
+def _serve(conn: Connection, build: Build, rig: Any) -> None:
+    """A worker's life: build and calibrate the finger, then answer frames and image requests until
+    told to stop or the main process is gone."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the main process's to handle
+    image, stamp = None, None
+    try:
+        finger = build(rig)
+        conn.send(("ready",))
+        while True:
+            try:
+                message = conn.recv()
+            except (EOFError, OSError):  # the main process is gone
+                return
+            if message is None:
+                return
+            if message[0] == "frame":
+                state, image = finger.process(*message[1:])
+                stamp = state.stamp
+                conn.send(("state", state))
+            else:
+                conn.send(("image", image, stamp))
+    except Exception as exc:  # noqa: BLE001 - any failure goes to the main process, which marks the finger unhealthy
+        try:
+            conn.send(("error", f"{type(exc).__name__}: {exc}"))
+        except OSError:
+            pass
+
+
+class FingerWorker:
+    """The main process's end of one finger's worker."""
+
+    def __init__(self, context: multiprocessing.context.BaseContext, finger: str, build: Build, rig: Any):
+        self.finger = finger
+        self._conn, child = context.Pipe()
+        self.process = context.Process(target=_serve, args=(child, build, rig), name=f"pixel worker {finger}",
+                                       daemon=True)
+        self.process.start()
+        child.close()
+        self.failure = ""  # why the worker no longer answers ("" while it works)
+
+    def wait_ready(self, timeout: float) -> None:
+        """Block until the worker has calibrated its finger, or raise DriverFault saying why not."""
+        reply = self._reply(timeout)
+        if reply is None or reply[0] != "ready":
+            self.close()
+            raise DriverFault(f"{self.failure or reply} while starting - a script that builds a pixel-mode cell "
+                              "needs the `if __name__ == '__main__':` guard; or run pixel mode without workers: "
+                              "`pixel_workers: false` in the cell file")
+
+    def submit(self, frame: Frame) -> None:
+        """Send a frame to process (nothing once the worker has failed)."""
+        if not self.failure:
+            try:
+                self._conn.send(("frame", *frame))
+            except OSError as exc:
+                self._fail(f"could not be sent a frame ({exc})")
+
+    def state(self, stamp: float) -> TactileState:
+        """The state of the frame submitted last, or an unhealthy state naming what went wrong."""
+        reply = self._reply(REPLY_TIMEOUT) if not self.failure else None
+        if reply is not None and reply[0] == "state":
+            return reply[1]
+        return TactileState(self.finger, stamp, healthy=False, health_reason=self.failure)
+
+    def image(self) -> tuple[np.ndarray, float] | None:
+        """The newest frame the worker processed and its stamp (None before the first or after a failure)."""
+        if self.failure:
+            return None
+        try:
+            self._conn.send(("image",))
+        except OSError as exc:
+            self._fail(f"could not be asked for its image ({exc})")
+            return None
+        reply = self._reply(REPLY_TIMEOUT)
+        if reply is None or reply[0] != "image" or reply[1] is None:
+            return None
+        return reply[1], reply[2]
+
+    def _reply(self, timeout: float) -> tuple | None:
+        """The worker's next message; None (and the worker failed) when it dies, raises or times out."""
+        try:
+            if not self._conn.poll(timeout):
+                self._fail(f"did not answer in {timeout:g} s")
+                return None
+            reply = self._conn.recv()
+        except (EOFError, OSError):
+            self.process.join(CLOSE_TIMEOUT)
+            self._fail(f"died (exit code {self.process.exitcode})")
+            return None
+        if reply[0] == "error":
+            self._fail(f"raised {reply[1]}")
+            return None
+        return reply
+
+    def _fail(self, why: str) -> None:
+        """Remember why, and end the worker at once: whatever it still holds is of no use."""
+        self.failure = f"camera {self.finger}: the pixel-mode worker (pid {self.process.pid}) {why}"
+        self.process.kill()
+        self.process.join(CLOSE_TIMEOUT)
+        self._conn.close()
+
+    def close(self) -> None:
+        """Ask the worker to leave, wait a bounded time, then terminate it."""
+        try:
+            self._conn.send(None)
+        except OSError:
+            pass
+        self.process.join(CLOSE_TIMEOUT)
+        if self.process.is_alive():
+            self.process.terminate()
+            self.process.join(CLOSE_TIMEOUT)
+        if self.process.is_alive():  # stopped (SIGSTOP) or ignoring SIGTERM
+            self.process.kill()
+            self.process.join(CLOSE_TIMEOUT)
+        self._conn.close()
+
+
+class WorkerFrames(LatestFrames):
+    """The newest frame of each finger: kept references for the fingers in the main process, fetched
+    from the workers when read (the recorder reads a few a second; a tick sends no image)."""
+
+    def __init__(self, workers: Mapping[str, FingerWorker]):
+        self._kept: dict[str, tuple[np.ndarray, float]] = {}  # LatestFrames' `images` is computed here
+        self._workers = workers
+
+    @property
+    def images(self) -> dict[str, tuple[np.ndarray, float]]:
+        fetched = {finger: worker.image() for finger, worker in self._workers.items()}
+        return {**self._kept, **{finger: got for finger, got in fetched.items() if got is not None}}
+
+    def keep(self, finger: str, image: np.ndarray, stamp: float) -> None:
+        self._kept[finger] = (image, stamp)
+
+
+class FingerWorkers:
+    """Both fingers of pixel mode, each processor made by `build` from the finger's entry of `rigs`: those in
+    `remote` in worker processes, the others in this process."""
+
+    def __init__(self, build: Build, rigs: Mapping[str, Any], remote: Collection[str]):
+        context = _context() if remote else None
+        self._workers = {finger: FingerWorker(context, finger, build, rigs[finger])
+                         for finger in FINGERS if finger in remote}
+        try:
+            self._local = {finger: build(rigs[finger]) for finger in FINGERS if finger not in remote}
+            for worker in self._workers.values():  # calibrating meanwhile
+                worker.wait_ready(START_TIMEOUT)
+        except BaseException:
+            self.close()
+            raise
+        self.frames = WorkerFrames(self._workers)
+
+    @property
+    def processes(self) -> dict[str, multiprocessing.process.BaseProcess]:
+        """Finger -> its worker process (none for the fingers processed here)."""
+        return {finger: worker.process for finger, worker in self._workers.items()}
+
+    def process(self, frames: Mapping[str, Frame]) -> dict[str, TactileState]:
+        """Each finger's state of its frame; the workers' frames are processed while this process does its own."""
+        for finger, worker in self._workers.items():
+            worker.submit(frames[finger])
+        states = {}
+        for finger, local in self._local.items():
+            states[finger], image = local.process(*frames[finger])
+            self.frames.keep(finger, image, states[finger].stamp)
+        for finger, worker in self._workers.items():
+            states[finger] = worker.state(frames[finger][-1])
+        return {finger: states[finger] for finger in FINGERS}
+
+    def close(self) -> None:
+        """Stop the workers (bounded: each is terminated if it does not leave in time)."""
+        for worker in self._workers.values():
+            worker.close()
