@@ -38,11 +38,11 @@ def normal_component(markers: MarkerField, mode: NormalMode = "xy_norm") -> np.n
     return _normal(markers, markers.displacement, mode)
 
 
-def _normal(markers: MarkerField, d: np.ndarray, mode: NormalMode) -> np.ndarray:
+def _normal(markers: MarkerField, d: np.ndarray, mode: NormalMode, out: np.ndarray | None = None) -> np.ndarray:
     if mode == "xy_norm":
-        return np.hypot(d[:, 0], d[:, 1])
+        return np.hypot(d[:, 0], d[:, 1], out=out)
     if mode == "marker_size":
-        return np.maximum(0.0, markers.size_change)
+        return np.maximum(0.0, markers.size_change, out=out)
     raise ValueError(f"unknown normal_mode {mode!r}; expected 'xy_norm' or 'marker_size'")
 
 
@@ -69,7 +69,9 @@ def marker_levers(markers: MarkerField, finger: str) -> np.ndarray:
 
 def _average(values: np.ndarray, how: Averaging) -> np.ndarray:
     if how == "mean":
-        return values.sum(axis=0) / len(values)  # what mean() does, without its overhead
+        total = np.add.reduce(values, axis=0)  # what mean() does, without its overhead
+        total /= len(values)
+        return total
     if how == "median":
         return np.median(values, axis=0)
     if how == "robust":
@@ -90,6 +92,36 @@ def _valid(markers: MarkerField) -> np.ndarray:
     return np.asarray(markers.valid, bool)
 
 
+_TERMS = np.array([0, 2, 1, 2, 0, 2, 1])  # columns of [dx, dy, normal] in each term of `_terms`
+_CACHE_SIZE = 16  # marker maps whose terms are kept (two fingers, a few maps over a run)
+_cache: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _terms(markers: MarkerField, finger: str) -> np.ndarray:
+    """(N, 7) factors of [dx, normal, dy, normal, dx, normal, dy] per marker: the three force
+    components and the torque terms -p1 f1, p1 f0, p0 f1, -p0 f2 (f = signed force, p = lever),
+    with the signs folded in (exact: they are +-1). Kept per marker origin array and finger: an
+    origin array is never changed in place (a marker map that grows makes a new one)."""
+    origin = markers.origin
+    key = (id(origin), finger, markers.image_size)
+    hit = _cache.get(key)
+    if hit is not None and hit[0] is origin:
+        return hit[1]
+    fsign, _ = _signs(finger)
+    p = marker_levers(markers, finger)
+    terms = np.empty((len(origin), 7))
+    terms[:, :3] = fsign
+    terms[:, 3] = -p[:, 1] * fsign[1]
+    terms[:, 4] = p[:, 1] * fsign[0]
+    terms[:, 5] = p[:, 0] * fsign[1]
+    terms[:, 6] = -p[:, 0] * fsign[2]
+    terms.flags.writeable = False  # shared by every call on this marker map
+    if len(_cache) >= _CACHE_SIZE:
+        _cache.clear()
+    _cache[key] = (origin, terms)
+    return terms
+
+
 def wrench(
     markers: MarkerField,
     finger: str,
@@ -101,18 +133,25 @@ def wrench(
     """Averaged (force, torque) over the valid markers, times the calibration scales (1 = pixels);
     zeros when no marker is valid."""
     valid = _valid(markers)
-    if not valid.any():
+    count = int(np.count_nonzero(valid))
+    if count == 0:
         return np.zeros(3), np.zeros(3)
-    f = marker_forces(markers, finger, mode)
-    p = marker_levers(markers, finger)
-    if not valid.all():
-        f, p = f[valid], p[valid]
-    # [f, cross([p0, 0, p1], f)] per marker, averaged in one pass (small-array numpy calls
-    # dominate the cost here, and this runs for every finger on every tick).
-    fw = np.empty((len(f), 6))
-    fw[:, :3] = f
-    fw[:, 3] = -p[:, 1] * f[:, 1]
-    fw[:, 4] = p[:, 1] * f[:, 0] - p[:, 0] * f[:, 2]
-    fw[:, 5] = p[:, 0] * f[:, 1]
-    mean = _average(fw, averaging)
-    return mean[:3] * force_scale, mean[3:] * torque_scale
+    terms = _terms(markers, finger)
+    # [f, cross([p0, 0, p1], f)] per marker as seven products of [dx, dy, normal] with the cached
+    # factors, averaged in one pass: small-array numpy calls dominate the cost here, and this runs
+    # for every finger on every tick. Same arithmetic per marker as marker_forces/marker_levers.
+    d = np.empty((len(valid), 3))
+    np.subtract(markers.position, markers.origin, out=d[:, :2])
+    _normal(markers, d[:, :2], mode, out=d[:, 2])
+    fw = d.take(_TERMS, axis=1)  # C order, so the average sums each column marker by marker as before
+    fw *= terms
+    if count < len(valid):
+        fw = fw[valid]
+    fw[:, 4] += fw[:, 6]
+    mean = _average(fw[:, :6], averaging)
+    return _scaled(mean[:3], force_scale), _scaled(mean[3:], torque_scale)
+
+
+def _scaled(values: np.ndarray, scale: np.ndarray | float) -> np.ndarray:
+    """`values * scale`, skipping the (exact, but not free) product with the default scale 1."""
+    return values if isinstance(scale, float) and scale == 1.0 else values * scale
