@@ -11,6 +11,7 @@ its loads and goes back up R a^2 b^2 / (3 E I L) under R, while the element, gri
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -48,11 +49,28 @@ class BeamPlate:
         b = self.span - a
         return a**2 * b**2 / (3.0 * self.EI * self.span)
 
-    def carried_force(self, a, clearance) -> np.ndarray:
-        """R(a): load an element at a with unloaded clearance g0 = `clearance` carries (N)."""
+    def carried_force(self, a, clearance) -> np.ndarray | float:
+        """R(a): load an element at a with unloaded clearance g0 = `clearance` carries (N); a float
+        for float arguments (the simulated cell asks this for one element a few times a tick)."""
+        if isinstance(a, float) and isinstance(clearance, float):
+            return self._carried_force_at(a, clearance)
         a = np.clip(np.asarray(a, dtype=float), 0.0, self.span)
         gap = self.deflection(a) - clearance
         return np.maximum(0.0, gap) / (self.self_flexibility(a) + 1.0 / self.k)
+
+    def _carried_force_at(self, a: float, clearance: float) -> float:
+        """`carried_force` of one position on Python floats, bit for bit: the array path works on
+        numpy scalars (whose ** is libm's pow, as Python's is) except `a**2` in `self_flexibility`, a
+        0-d array that numpy squares (x * x); the same operations in the same order, without numpy's
+        per-call cost."""
+        L, EI = self.span, self.EI
+        x = a if math.isnan(a) else min(max(a, 0.0), L)  # as np.clip: a NaN stays NaN
+        lo, hi = min(x, self.c), max(x, self.c)
+        b = L - hi
+        y = (self.w * x * (L**3 - 2 * L * x**2 + x**3) / (24.0 * EI)
+             + self.P * (b * lo * (L**2 - b**2 - lo**2) / (6.0 * EI * L)))
+        b = L - x
+        return max(0.0, y - clearance) / ((x * x) * b**2 / (3.0 * EI * L) + 1.0 / self.k)
 
     def max_load(self, clearance: float, lo: float = 0.0, hi: float | None = None):
         """(a*, R(a*)): the true maximum-load position within [lo, hi] (dense search + refine)."""
