@@ -18,11 +18,15 @@ def test_bench_ticks(tmp_path, capsys):
     assert main(["bench", "ticks", "--quick", "--out", str(tmp_path)]) == 0
     rows = read_csv(tmp_path / "ticks.csv")
     names = {r["name"] for r in rows}
-    assert {"perception stage", "tree tick", "cell step", "whole tick", "find_load", "grasp"} <= names
+    assert {"perception", "supervisor", "recorder", "tree tick", "cell step", "whole tick", "find_load", "grasp"} <= names
     regret = [r for r in rows if r["group"] == "regret %"]
     assert len(regret) == 2 and all(r["unit"] == "%" and float(r["max"]) < 1.0 for r in regret)
     assert (tmp_path / "ticks.png").stat().st_size > 5_000
-    assert "tree tick median" in (tmp_path / "ticks.md").read_text()
+    md = (tmp_path / "ticks.md").read_text()
+    assert "tree tick median" in md and "recorder: mean" in md  # timed as `fvtree run` runs: recorded
+    recorder = next(r for r in rows if r["name"] == "recorder")
+    assert int(recorder["count"]) == int(next(r for r in rows if r["name"] == "whole tick")["count"])
+    assert float(recorder["mean"]) > 0
 
 
 def test_bench_skills(tmp_path):

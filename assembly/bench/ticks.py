@@ -1,18 +1,22 @@
 """`fvtree bench ticks`: what one tick of the assembly costs, the simulated real-time factor in
 both perception modes and the force regret of the placements.
 
-Runs trees/assembly.yaml on the simulated cell with several seeds and times every tick's parts
-(each pre- and post-tick handler, the tree tick, the cell step) and each behaviour's own `update`;
-then runs it in pixel mode (each finger's frame rendered and put through the real FingerVision
-pipeline). Writes ticks.csv, ticks.md and ticks.png. Targets: tree tick under 0.5 ms median (room
-for a 500 Hz robot loop), the whole simulated assembly at least 100x faster than real time in
+Runs trees/assembly.yaml on the simulated cell with several seeds, as `fvtree run` does (supervised,
+recorded, with its run directory, design bridge and transition log, heap frozen), and times every
+tick's parts (each pre- and post-tick handler by the runner's name for it: stop policy, perception,
+supervisor, recorder, ...; the tree tick; the cell step) and each behaviour's own `update`; then runs
+it in pixel mode (each finger's frame rendered and put through the real FingerVision pipeline).
+Writes ticks.csv, ticks.md and ticks.png. Targets: tree tick under 0.5 ms median (room for a 500 Hz
+robot loop), the whole simulated assembly at least 100x faster than real time in
 signals mode and 10x in pixel mode, and force regret under 1 % with 2 % force noise.
 """
 
 from __future__ import annotations
 
 import csv
+import gc
 import statistics
+import tempfile
 import time
 from collections import defaultdict
 from pathlib import Path
@@ -20,8 +24,12 @@ from pathlib import Path
 import numpy as np
 
 from assembly.blackboard import clear_blackboard
+from assembly.design import DesignBridge
 from assembly.loader import build, load_tree
+from assembly.observe.recorder import run_recorder
+from assembly.run_dir import ASBUILT_FILE
 from assembly.runner import Runner
+from assembly.supervisor import Supervision
 from drivers.cell_builders import load_cell
 
 TREE = Path(__file__).resolve().parents[2] / "trees" / "assembly.yaml"
@@ -30,7 +38,8 @@ QUICK_PIXEL_SECONDS = 20.0  # --quick: pixel mode over the first seconds of the 
 
 class TimedRunner(Runner):
     """A Runner that records how long each part of every tick takes (seconds): each pre- and
-    post-tick handler, the tree tick between them, the cell step and the whole tick."""
+    post-tick handler (named as `stage_name` says), the tree tick between them, the cell step and
+    the whole tick."""
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
@@ -39,20 +48,33 @@ class TimedRunner(Runner):
         for path, node in self.tree.nodes.items():
             if not node.children:  # leaves: skills and conditions
                 node.update = self._timed(node.update, self.behaviour_times[path])
-        names = {self.stop_policy.before_tick: "stop policy", self.perception: "perception stage",
-                 self._kick_watchdog: "watchdog kick", self.tip: "tip", self.load_profiles: "load profiles",
-                 self.log: "transition log", self.progress: "progress"}
         tree = self.behaviour_tree
         # Parts in tick order: the marks time the tree tick (between the pre- and post-tick
         # handlers) and the cell step (after the post-tick handlers).
-        pre = [self._timed(h, self.parts[names[h]]) for h in tree.pre_tick_handlers]
+        pre = [self._timed(h, self.parts[self.stage_name(h)]) for h in tree.pre_tick_handlers]
         tree_tick = self.parts["tree tick"]
-        post = [self._timed(h, self.parts[names[h]]) for h in tree.post_tick_handlers]
+        post = [self._timed(h, self.parts[self.stage_name(h)]) for h in tree.post_tick_handlers]
         self._cell_step, self._whole_tick = self.parts["cell step"], self.parts["whole tick"]
         tree.pre_tick_handlers[:] = [*pre, self._mark]
         tree.post_tick_handlers[:] = [lambda _: tree_tick.append(time.perf_counter() - self._last_mark),
                                       *post, self._mark]
         self._last_mark = 0.0
+
+    def stage_name(self, handler) -> str:
+        """A tick handler's stage: the runner's attribute holding it or the object it is a method
+        of ("recorder", "stop policy"), its own name for a method of the runner ("kick watchdog"),
+        else its class; unique (a second handler of one name gets " 2")."""
+        owner = getattr(handler, "__self__", None)
+        if owner is self:
+            name = handler.__name__
+        else:
+            name = next((attr for attr, value in vars(self).items()
+                         if value is handler or (owner is not None and value is owner)), type(handler).__name__)
+        name = name.strip("_").replace("_", " ")
+        n = 1
+        while (f"{name} {n}" if n > 1 else name) in self.parts:
+            n += 1
+        return f"{name} {n}" if n > 1 else name
 
     @staticmethod
     def _timed(function, sink: list[float]):
@@ -90,17 +112,32 @@ def _one_run(timed: bool, seed: int = 0, cell_file: str = "sim"):
 def _assembly(timed: bool, seed: int, cell_file: str = "sim", perception: str | None = None,
               max_time: float = 3600.0):
     """(document, runner, result, cell, CPU seconds of the run) of one assembly on a fresh tree
-    and design; on a shared machine other processes add wall time but not CPU time."""
+    and design, run as `fvtree run` runs it (supervised, recorded with camera frames at the default
+    rate, a run directory with its design bridge and transition log, heap frozen; no progress line);
+    on a shared machine other processes add wall time but not CPU time."""
     doc = load_tree(TREE)
     clear_blackboard()
     cell = load_cell(cell_file, doc.tick_hz, doc.scene, doc.design.scene_args(), seed=seed,
                      perception=perception)
     cls = TimedRunner if timed else Runner
-    runner = cls(build(doc), cell, max_time=max_time)
-    runner.setup()
-    cpu = time.process_time()
-    result = runner.run()
-    return doc, runner, result, cell, time.process_time() - cpu
+    with tempfile.TemporaryDirectory() as tmp:
+        run_dir = Path(tmp)
+        bridge = DesignBridge(doc.design, run_dir / ASBUILT_FILE, run_dir / "events.jsonl")
+        built = build(doc)
+        runner = cls(built, cell, run_dir, bridge, max_time=max_time, supervision=Supervision.of_cell(cell_file),
+                     recorder=run_recorder(built, cell, run_dir, bridge.model))
+        runner.setup()
+        gc.collect()  # as `fvtree run` does: no full collections over the heap built so far
+        gc.freeze()
+        cpu = time.process_time()
+        try:
+            result = runner.run()
+        finally:
+            cpu = time.process_time() - cpu
+            gc.unfreeze()
+            cell.close()
+            bridge.close()
+    return doc, runner, result, cell, cpu
 
 
 def _pixel_runs(repeats: int, quick: bool) -> list[tuple]:
@@ -142,31 +179,20 @@ def run(out_dir: Path, quick: bool = False) -> list[Path]:
     pixel_cpu_factors = [cpu for _, cpu in pixel_runs]
 
     us = 1e6
-    rows = []
-    for name, values in timed.parts.items():
-        v = np.array(values) * us
-        rows.append(("stage µs", name, len(v), float(np.median(v)), float(np.percentile(v, 95)), float(v.max())))
+    rows = [_row("stage µs", name, values, us) for name, values in timed.parts.items()]
     called = {p: v for p, v in timed.behaviour_times.items() if v}
-    for path, values in sorted(called.items(), key=lambda kv: -np.median(kv[1])):
-        v = np.array(values) * us
-        rows.append(("behaviour µs", path.split("/")[-1], len(v), float(np.median(v)),
-                     float(np.percentile(v, 95)), float(v.max())))
-    for noise, values in regrets.items():
-        v = np.array(values) * 100
-        rows.append(("regret %", f"force noise {noise:.0%}", len(v), float(np.median(v)),
-                     float(np.percentile(v, 95)), float(v.max())))
-    for mode, values in (("signals mode", factors), ("pixels mode", pixel_factors),
-                         ("pixels mode, on CPU time", pixel_cpu_factors)):
-        v = np.array(values)
-        rows.append(("real-time factor", mode, len(v), float(np.median(v)), float(np.percentile(v, 95)),
-                     float(v.max())))
+    rows += [_row("behaviour µs", path.split("/")[-1], values, us)
+             for path, values in sorted(called.items(), key=lambda kv: -np.median(kv[1]))]
+    rows += [_row("regret %", f"force noise {noise:.0%}", values, 100) for noise, values in regrets.items()]
+    rows += [_row("real-time factor", mode, values, 1) for mode, values in
+             (("signals mode", factors), ("pixels mode", pixel_factors), ("pixels mode, on CPU time", pixel_cpu_factors))]
     csv_path = out_dir / "ticks.csv"
     with open(csv_path, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["group", "name", "count", "median", "p95", "max", "unit"])
+        w.writerow(["group", "name", "count", "median", "p95", "max", "mean", "unit"])
         units = {"regret %": "%", "real-time factor": "x"}
-        w.writerows((g, n, c, f"{m:.4g}", f"{p:.4g}", f"{x:.4g}", units.get(g, "us"))
-                    for g, n, c, m, p, x in rows)
+        w.writerows((g, n, c, f"{m:.4g}", f"{p:.4g}", f"{x:.4g}", f"{a:.4g}", units.get(g, "us"))
+                    for g, n, c, m, p, x, a in rows)
 
     tree_median = statistics.median(timed.parts["tree tick"]) * 1e3
     rtf = statistics.median(factors)
@@ -188,10 +214,11 @@ def run(out_dir: Path, quick: bool = False) -> list[Path]:
          f"median **{np.median(regrets[0.02]) * 100:.3f} %**, max {np.max(regrets[0.02]) * 100:.3f} % "
          f"(target < 1 %); with 5 % noise: max {np.max(regrets[0.05]) * 100:.3f} %"),
         f"- ticks per run: {timed.ticks} at {doc.tick_hz:g} Hz",
+        _recorder_line(timed.parts, doc.tick_hz),
         "",
-        "| group | name | count | median | p95 | max |",
-        "|---|---|---:|---:|---:|---:|",
-        *[f"| {g} | {n} | {c} | {m:.4g} | {p:.4g} | {x:.4g} |" for g, n, c, m, p, x in rows],
+        "| group | name | count | median | p95 | max | mean |",
+        "|---|---|---:|---:|---:|---:|---:|",
+        *[f"| {g} | {n} | {c} | {m:.4g} | {p:.4g} | {x:.4g} | {a:.4g} |" for g, n, c, m, p, x, a in rows],
         "",
     ]
     md_path.write_text("\n".join(md))
@@ -219,5 +246,24 @@ def run(out_dir: Path, quick: bool = False) -> list[Path]:
     png_path = out_dir / "ticks.png"
     fig.savefig(png_path, dpi=110)
     plt.close(fig)
-    print("\n".join(md[2:7]))
+    print("\n".join(md[2:8]))
     return [csv_path, md_path, png_path]
+
+
+def _row(group: str, name: str, values: list[float], scale: float) -> tuple:
+    """(group, name, count, median, p95, max, mean) of `values` times `scale`."""
+    v = np.array(values) * scale
+    return group, name, len(v), float(np.median(v)), float(np.percentile(v, 95)), float(v.max()), float(v.mean())
+
+
+def _recorder_line(parts: dict[str, list[float]], tick_hz: float) -> str:
+    """What recording costs a tick (its mean: it sends its columns in batches of ticks) against the
+    whole tick and the budget of a tick at 100x real time."""
+    whole = 1e6 * float(np.mean(parts["whole tick"]))
+    budget = f"100x real time at {tick_hz:g} Hz needs <= {1e6 / (100 * tick_hz):.0f} µs a tick"
+    if "recorder" not in parts:
+        return f"- whole tick: mean {whole:.0f} µs, not recorded; {budget}"
+    rec = 1e6 * np.array(parts["recorder"])
+    return (f"- recorder: mean **{rec.mean():.1f} µs a tick** (median {np.median(rec):.1f} µs, max {rec.max():.0f} µs: "
+            f"it sends its columns once per batch of ticks) of a whole tick of mean {whole:.0f} µs "
+            f"({100 * rec.mean() / whole:.0f} %); {budget}")
