@@ -143,6 +143,7 @@ class SlipConfig:
     """Slip: moving object pixels by `mog2` (original) or `flow` (DIS optical flow), or `off`."""
 
     method: Literal["mog2", "flow", "off"] = "mog2"
+    step: int = 1  # mog2: model every step-th pixel of each axis, each result spread over its step x step block
     history: int = 30
     var_threshold: float = 10.0
     shadows: bool = True
@@ -268,6 +269,8 @@ def _check(c: FingerVisionConfig, source: str) -> None:
         problems.append("kalman noise and covariance values must be positive")
     if c.proximity.width < 24 or c.proximity.height < 24:
         problems.append("proximity.width and height must be at least 24 px")
+    if c.slip.step < 1:
+        problems.append("slip.step must be at least 1 (1: every pixel)")
     if c.late.every < 1 or c.late.confirm < 2:
         problems.append("late.every must be at least 1 and late.confirm at least 2")
     if c.tracker.area_range[0] >= c.tracker.area_range[1]:
