@@ -69,6 +69,8 @@ class SensorModel:
         n = len(self.origin)
         self._origin_size = np.full(n, self.marker_size)
         self._rest = np.column_stack([self.origin, self._origin_size]).ravel()  # x, y, size per marker
+        rest = self._rest.reshape(-1, 3)
+        self._at_rest = (rest, rest[:, :2], rest[:, 2])  # the noise-free field of an unloaded fingertip, shared
         self._valid = np.ones(n, bool)
         self._rng = np.random.default_rng(self.seed)
         self._centre = np.array(self.image_size, float) / 2.0
@@ -93,12 +95,7 @@ class SensorModel:
 
     def state(self, contact: FingerContact, stamp: float) -> TactileState:
         """Render one `TactileState` from the loads on this fingertip."""
-        basis = self._patch(self._centre if contact.centre is None else contact.centre)
-        shear_x, shear_y = contact.shear
-        loads = np.array([self.shear_gain * shear_x, self.shear_gain * shear_y, self.normal_gain * contact.normal,
-                          self.torque_gain * contact.torque, self.size_gain * max(contact.normal, 0.0)])
-        exact = (self._rest + loads @ basis).reshape(-1, 3)
-        position, size = exact[:, :2], exact[:, 2]
+        exact, position, size = self._exact(contact)
         obj, slip, valid = contact.obj, contact.slip, self._valid
         if self.pipeline_errors:
             position, size, valid, obj, slip = self._error_model().apply(contact, position, size)
@@ -108,6 +105,25 @@ class SensorModel:
         markers = MarkerField(self.origin, position, self._origin_size, size, valid, self.image_size)
         force, torque = wrench(markers, self.finger, self.normal_mode)
         return TactileState(self.finger, stamp, markers, force, torque, obj, slip)
+
+    def _exact(self, contact: FingerContact) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(N, 3) noise-free x, y, size of the markers and its position and size views; an unloaded
+        fingertip gets the shared rest field (the same values as `_loaded`, without the product) when
+        noise or the pipeline errors make new arrays of it before it is handed out."""
+        if contact.normal == 0.0 and contact.torque == 0.0 and (self.pipeline_errors or self.noise_px):
+            shear_x, shear_y = contact.shear
+            if shear_x == 0.0 and shear_y == 0.0:
+                return self._at_rest
+        return self._loaded(contact)
+
+    def _loaded(self, contact: FingerContact) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The marker field of `contact`'s loads: the rest field moved by the contact centre's basis."""
+        basis = self._patch(self._centre if contact.centre is None else contact.centre)
+        shear_x, shear_y = contact.shear
+        loads = np.array([self.shear_gain * shear_x, self.shear_gain * shear_y, self.normal_gain * contact.normal,
+                          self.torque_gain * contact.torque, self.size_gain * max(contact.normal, 0.0)])
+        exact = (self._rest + loads @ basis).reshape(-1, 3)
+        return exact, exact[:, :2], exact[:, 2]
 
     def _error_model(self) -> ErrorModel:
         if self._errors is None:

@@ -65,10 +65,13 @@ def object_radius(area: float) -> float:
 def image_motion(prev, contact, prev_markers: np.ndarray, markers: np.ndarray) -> float:
     """px/frame the object shows moving between two FingerContacts: its texture sliding (slip),
     its centroid, its turn (at half its radius), its edge growing or shrinking, and the markers
-    moving over it (mean)."""
+    moving over it (mean; none when both ticks share one marker array, an unloaded fingertip)."""
     obj, last = contact.obj, prev.obj
-    moved = np.subtract(markers, prev_markers)
-    motion = SLIP_PX_PER_UNIT * contact.slip + float(np.add.reduce(np.abs(moved, out=moved), axis=None)) / moved.size
+    if markers is prev_markers:
+        motion = SLIP_PX_PER_UNIT * contact.slip + 0.0  # + 0.0: the same sum as a zero mean motion
+    else:
+        moved = np.subtract(markers, prev_markers)
+        motion = SLIP_PX_PER_UNIT * contact.slip + float(np.add.reduce(np.abs(moved, out=moved), axis=None)) / moved.size
     if obj.present and last.present:
         (dx, dy) = (obj.centroid - last.centroid).tolist()
         radius = object_radius(obj.area)

@@ -160,6 +160,8 @@ class AssemblyScene(Scene):
         self._slip = 0.0
         self._noise_scale: dict[str, float] = {}  # plate id -> load noise std (N)
         self._contact = np.zeros(3)  # N, another element pushing back on the held one
+        self._force_key: tuple = ()  # (element, state, pose, contact) of the last external force
+        self._force_value = np.zeros(3)
         self.collisions: list[str] = []  # "E2 hit E1 at t s", in order
         self.plate_pushes: dict[tuple[str, str], list[float]] = {}  # (element, plate) -> [first t, most N]
         self._t = 0.0
@@ -263,7 +265,15 @@ class AssemblyScene(Scene):
 
     # ---- loads ---------------------------------------------------------------------------
     def external_force(self, e: Element) -> np.ndarray:
-        """Net force (base frame, N) the ground, the plates and gravity put on a held element."""
+        """Net force (base frame, N) the ground, the plates and gravity put on a held element (a new
+        array; computed once while the element, its state and the contact force stay as they are: a
+        tick asks for it twice when the element does not slip)."""
+        key = (e.id, e.state, e.pose.tobytes(), self._contact.tobytes())
+        if key != self._force_key:
+            self._force_key, self._force_value = key, self._external_force(e)
+        return self._force_value.copy()
+
+    def _external_force(self, e: Element) -> np.ndarray:
         bottom, top = e.ends()
         f = np.array([0.0, 0.0, -e.mass * GRAVITY])
         if e.state == "held":
@@ -326,23 +336,28 @@ class AssemblyScene(Scene):
             self._release(e)
 
     # ---- sensing --------------------------------------------------------------------------
-    def _view(self, e: Element, tool: np.ndarray, side: float, local: np.ndarray) -> ObjectInfo:
-        """What the fingertip camera on tool-y side `side` (+1 right, -1 left) sees of `e`;
-        `local` is the TCP position in the element frame.
+    def _views(self, e: Element, tool: np.ndarray, local: np.ndarray) -> tuple[ObjectInfo, ObjectInfo]:
+        """What the left and right fingertip cameras (tool-y side -1 and +1) see of `e`; `local` is
+        the TCP position in the element frame.
 
-        The visible share of the window along the element gives the area and centroid; the
-        gap between the element face and the pad scales the area (nearer looks bigger).
+        The visible share of the window along the element gives the area and centroid (the same
+        share for both fingertips, mirrored); the gap between the element face and each pad scales
+        its area (nearer looks bigger).
         """
         r = self.config.view_half
         lo, hi = max(local[0] - r, -e.length / 2.0), min(local[0] + r, e.length / 2.0)
         overlap = max(0.0, hi - lo)
         if overlap <= 0.0:
-            return ObjectInfo()
+            return ObjectInfo(), ObjectInfo()
         offset = (tool[:3, :3].T @ (e.pose[:3] - tool[:3, 3]))[1]  # element centre, tool y
-        gap = max(0.0, self.gripper.width() / 2.0 - side * offset - e.width / 2.0)
-        area = 0.35 * overlap / (2.0 * r) / (1.0 + gap / 0.01)
+        half_width = self.gripper.width() / 2.0
         centre = ((lo + hi) / 2.0 - local[0]) / (2.0 * r)  # -0.5 .. 0.5 of the image width
-        return ObjectInfo(True, area, np.array([side * centre, 0.0]), 0.0)
+        views = []
+        for side in (-1.0, 1.0):
+            gap = max(0.0, half_width - side * offset - e.width / 2.0)
+            area = 0.35 * overlap / (2.0 * r) / (1.0 + gap / 0.01)
+            views.append(ObjectInfo(True, area, np.array([side * centre, 0.0]), 0.0))
+        return views[0], views[1]
 
     def contacts(self) -> dict[str, FingerContact]:
         """Loads and views on the two fingertips for the current state."""
@@ -351,13 +366,10 @@ class AssemblyScene(Scene):
             return {"left": FingerContact(), "right": FingerContact()}
         normal = self.gripper.squeeze_force()
         f_tool = tool[:3, :3].T @ self._force  # element pushes the fingers with the external load
-        local = e.inverse() @ tool[:, 3]
-        out = {}
-        for finger, side in (("left", -1.0), ("right", 1.0)):
-            shear = 0.5 * np.array([side * f_tool[0], f_tool[2]])
-            out[finger] = FingerContact(normal, shear, 0.0, None, self._view(e, tool, side, local),
-                                        self._slip)
-        return out
+        views = self._views(e, tool, e.inverse() @ tool[:, 3])
+        shear_x, shear_z = 0.5 * f_tool[0], 0.5 * f_tool[2]
+        return {finger: FingerContact(normal, np.array([side * shear_x, shear_z]), 0.0, None, view, self._slip)
+                for finger, side, view in (("left", -1.0, views[0]), ("right", 1.0, views[1]))}
 
     def metrics(self) -> dict:
         """The collisions between elements and the plates held elements pushed, when there were any."""
