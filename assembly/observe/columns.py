@@ -1,6 +1,6 @@
-"""Per-tick data kept in columns until it is sent: the recorder appends one row a tick (a few
-array copies, no Rerun call) and sends each column once per batch with `send_columns`, whose
-fixed cost (~0.2 ms a call) is then shared by a whole batch of ticks."""
+"""Per-tick data kept until it is sent: the recorder appends one row of references a tick (no
+copy, no Rerun call) and sends each column once per batch with `send_columns`, whose fixed cost
+(~0.2 ms a call) is then shared by a whole batch of ticks."""
 
 from __future__ import annotations
 
@@ -13,17 +13,6 @@ import rerun as rr
 def time_columns(ticks: np.ndarray, times: np.ndarray) -> list[rr.TimeColumn]:
     """The two timelines of every row: the tick number and the cell time (seconds)."""
     return [rr.TimeColumn("tick", sequence=ticks), rr.TimeColumn("cell_time", duration=times)]
-
-
-class Block:
-    """A fixed-size block of per-tick rows: `rows[i]` is filled in place for row i (one tick)."""
-
-    def __init__(self, capacity: int, shape: tuple[int, ...], dtype: Any = np.float64):
-        self.rows = np.zeros((capacity, *shape), dtype)
-
-    @property
-    def shape(self) -> tuple[int, ...]:
-        return self.rows.shape[1:]
 
 
 class Sparse:

@@ -32,7 +32,7 @@ from py_trees.common import Status
 from assembly.design import DesignModel
 from assembly.loader import BuiltTree
 from assembly.observe import IMAGE_HZ
-from assembly.observe.columns import Block, Sparse, time_columns
+from assembly.observe.columns import Sparse, time_columns
 from assembly.observe.layout import default_blueprint
 from assembly.observe.scene3d import element_box, plate_boxes, quaternions
 from assembly.observe.tree_graph import tree_graph
@@ -86,8 +86,7 @@ class RunRecorder:
         self._statuses = ["INVALID"] * len(self._graph.paths)
         self._last = {path: Status.INVALID for path, _ in self._nodes}
         self._rows: list[tuple] = []  # per tick: tick, cell time, pose, wrench, width, object, each finger's state
-        self._arrows: dict[str, Block | None] = {f: None for f in FINGERS}
-        self._sizes: tuple[int, ...] = ()  # markers per finger the blocks are sized for
+        self._sizes: tuple[int, ...] = ()  # markers per finger in the kept rows
         self._n = 0
         self._next_tick = 0  # the tick that commands sent now belong to
         self._sent_at = time.perf_counter()
@@ -96,8 +95,8 @@ class RunRecorder:
         self._feedback = {path: "" for path, _ in self._nodes}
         self._node_objects = [node for _, node in self._nodes]
         self._seen: tuple[list, list] = ([], [])  # every node's status and feedback at the last tick
-        self._valid: dict[str, Block] = {}
         self._origins: dict[str, np.ndarray | None] = {f: None for f in FINGERS}
+        self._origins_logged = False  # new origins logged since the last batch (to be written before its arrows)
         self._element = self._profile = self._scan = None
         self._next_scan, self._scan_drawn = 0.0, 0  # cell time of the next drawing of the scan, samples drawn
         self._design = design
@@ -139,26 +138,25 @@ class RunRecorder:
 
     def record(self, tick: int) -> None:
         """Keep this tick's row (the snapshot the tree acted on, and the statuses it left): references to
-        the tick's readings (the perception stage publishes new ones every tick) and a copy of the marker
-        arrows; the columns are built once per batch in `send`."""
+        the tick's readings (the perception stage publishes new ones every tick and never changes one it
+        handed out); the columns, marker arrows included, are built once per batch in `send`."""
         if self._closed:
             return
         storage = Blackboard.storage
         now = self.cell.clock.now()
         states = (storage[keys.FV_LEFT], storage[keys.FV_RIGHT])
-        if (len(states[0].markers), len(states[1].markers)) != self._sizes:
-            self._fit(states)
-        i = self._n
+        sizes = (len(states[0].markers), len(states[1].markers))
+        if sizes != self._sizes:  # a new calibration may change the number of markers: send the rows so far
+            if self._n:
+                self.send()
+            self._sizes = sizes
         self._next_tick = tick + 1  # commands sent from now on belong to the next tick
         self._rows.append((tick, now, storage[keys.ROBOT_POSE], storage[keys.ROBOT_WRENCH],
                            storage[keys.GRIPPER_WIDTH], storage[keys.GRIPPER_OBJECT], *states))
         for finger, state in zip(FINGERS, states):
-            markers = state.markers
-            np.subtract(markers.position, markers.origin, out=self._arrows[finger].rows[i])
-            self._valid[finger].rows[i] = markers.valid if len(markers.valid) else True  # none given: all tracked
-            if self._origins[finger] is not markers.origin:
-                self._calibrated(tick, now, finger, markers)
-        self._n = i + 1
+            if self._origins[finger] is not state.markers.origin:
+                self._calibrated(tick, now, finger, state.markers)
+        self._n += 1
         if self._frames is not None and now + 1e-9 >= self._next_image:  # 1e-9: cell time is a sum of periods
             self._images(tick, now)
         self._tree(tick, now)
@@ -168,22 +166,13 @@ class RunRecorder:
         if self._n == self.batch or time.perf_counter() - self._sent_at > self.max_wait:
             self.send()
 
-    def _fit(self, states: tuple) -> None:
-        """Arrow and validity blocks sized for each finger's markers (a new calibration may change their
-        number: the rows kept so far are sent first)."""
-        if self._n:
-            self.send()
-        self._sizes = tuple(len(state.markers) for state in states)
-        for finger, m in zip(FINGERS, self._sizes):
-            self._arrows[finger] = Block(self.batch, (m, 2))
-            self._valid[finger] = Block(self.batch, (m,), bool)
-
     def _calibrated(self, tick: int, now: float, finger: str, markers) -> None:
         """New marker origins (a first or new calibration) for the arrows of `finger`."""
         if not np.array_equal(self._origins[finger], markers.origin):
             w, h = markers.image_size
             self._at(tick, now, f"fv/{finger}/markers", rr.Arrows2D.from_fields(origins=markers.origin))
             self._at(tick, now, f"fv/{finger}/markers/frame", rr.Boxes2D(mins=[0, 0], sizes=[w, h]))
+            self._origins_logged = True
         self._origins[finger] = markers.origin
 
     def _images(self, tick: int, now: float) -> None:
@@ -314,11 +303,15 @@ class RunRecorder:
         so that a run killed while a batch is written keeps them with any of its ticks."""
         n = self._n
         send = self.stream.send_columns
+        if self._origins_logged:  # logged rows wait in Rerun's batcher: the origins go first, as they came first
+            self.stream.flush()
+            self._origins_logged = False
         self._send_sparse()
         if n:
             rows = self._rows
             index = time_columns(np.array([r[0] for r in rows], np.int64), np.array([r[1] for r in rows]))
-            table = self._table(rows)
+            arrows = [_arrows([r[6 + k].markers for r in rows]) for k in range(len(FINGERS))]
+            table = self._table(rows, [valid for _, valid in arrows])
             for entity, (start, names) in ROBOT.items():
                 send(entity, index, rr.Scalars.columns(scalars=table[:, start:start + len(names)]))
             send("cell/tool", index, rr.Transform3D.columns(translation=table[:, 0:3],
@@ -328,19 +321,19 @@ class RunRecorder:
                 for what, (start, names) in FINGER.items():
                     send(f"fv/{finger}/{what}", index,
                          rr.Scalars.columns(scalars=table[:, base + start:base + start + len(names)]))
-                m = self._arrows[finger].shape[0]
+                vectors, valid = arrows[k]
+                m = valid.shape[1]
                 if m:
-                    valid = self._valid[finger].rows[:n].reshape(-1)
                     send(f"fv/{finger}/markers", index, rr.Arrows2D.columns(
-                        vectors=self._arrows[finger].rows[:n].reshape(-1, 2).astype(np.float32),
-                        colors=np.where(valid, VALID_RGBA, INVALID_RGBA)).partition([m] * n))
+                        vectors=vectors.reshape(-1, 2).astype(np.float32),
+                        colors=np.where(valid.reshape(-1), VALID_RGBA, INVALID_RGBA)).partition([m] * n))
         self._n = 0
         self._rows = []
         self._sent_at = time.perf_counter()
 
-    def _table(self, rows: list[tuple]) -> np.ndarray:
+    def _table(self, rows: list[tuple], valid: list[np.ndarray]) -> np.ndarray:
         """(n, ROBOT_WIDTH + FINGER_WIDTH * fingers) scalars of the kept rows, laid out as `ROBOT` and
-        `FINGER` say: built a column at a time, once per batch."""
+        `FINGER` say (`valid`: each finger's (n, markers) validity): built a column at a time, once per batch."""
         n = len(rows)
         table = np.empty((n, ROBOT_WIDTH + FINGER_WIDTH * len(FINGERS)))
         table[:, 0:6] = [r[2] for r in rows]
@@ -359,8 +352,7 @@ class RunRecorder:
             block[:, 8:10] = [o.centroid for o in objects]
             block[:, 10] = [o.orientation for o in objects]
             block[:, 11] = [s.healthy for s in states]
-            valid = self._valid[finger].rows[:n]
-            block[:, 12] = valid.mean(axis=1) if valid.shape[1] else 0.0
+            block[:, 12] = valid[k].mean(axis=1) if valid[k].shape[1] else 0.0
             block[:, 13] = [o.present for o in objects]
         return table
 
@@ -403,6 +395,21 @@ class RunRecorder:
                 guard.observers.remove(self.command)
         self.stream.flush()
         self.stream.disconnect()
+
+
+def _arrows(fields: list) -> tuple[np.ndarray, np.ndarray]:
+    """(n, markers, 2) displacement arrows and (n, markers) validity of a batch's marker fields (all of
+    one size; a field with no validity flags has every marker tracked)."""
+    n, m = len(fields), len(fields[0])
+    positions = np.array([f.position for f in fields], float).reshape(n, m, 2)
+    origin = fields[0].origin
+    if all(f.origin is origin for f in fields):
+        arrows = np.subtract(positions, origin, out=positions)
+    else:  # a calibration within the batch
+        arrows = np.subtract(positions, np.array([f.origin for f in fields], float).reshape(n, m, 2), out=positions)
+    every = np.ones(m, bool)
+    valid = np.array([f.valid if len(f.valid) else every for f in fields], bool).reshape(n, m)
+    return arrows, valid
 
 
 def _profile_scale(loads: np.ndarray) -> float:
