@@ -51,19 +51,26 @@ def cmd_coordinate(args) -> int:
     print(f"coordinating {coordinator.name} on {args.broker} (claims on {coordinator.topics.claims}, "
           f"state in {state})", file=sys.stderr)
     seen = 0
+
+    def print_new() -> None:
+        """Print the log entries not printed yet (the coordinator's thread appends meanwhile: count
+        what was printed, not the log's length after)."""
+        nonlocal seen
+        new = coordinator.log[seen:]
+        seen += len(new)
+        for entry in new:
+            print(json.dumps(entry), flush=True)
+
     coordinator.start()
     try:
         while not (args.until_done and coordinator.done()):
             time.sleep(0.2)
-            for entry in coordinator.log[seen:]:
-                print(json.dumps(entry), flush=True)
-            seen = len(coordinator.log)
+            print_new()
     except KeyboardInterrupt:
         pass
     finally:
         coordinator.stop()
-    for entry in coordinator.log[seen:]:
-        print(json.dumps(entry), flush=True)
+    print_new()
     return 0
 
 
