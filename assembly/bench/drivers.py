@@ -12,7 +12,6 @@ client costs, not a measurement of a real controller.
 
 from __future__ import annotations
 
-import argparse
 import csv
 import os
 import time
@@ -21,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from assembly.bench import script
 from drivers.clock import WallClock
 from drivers.emulators import backdoor
 from drivers.emulators.launch import EmulatorProcess
@@ -136,15 +136,6 @@ def run(out_dir: Path, quick: bool = False) -> list[Path]:
     return paths
 
 
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m assembly.bench.drivers", description=__doc__.split("\n\n")[0])
-    p.add_argument("--out", type=Path, default=Path("bench/drivers"))
-    p.add_argument("--quick", action="store_true", help="e-Series only, shorter runs")
-    args = p.parse_args(argv)
-    for path in run(args.out, args.quick):
-        print(f"wrote {path}")
-    return 0
-
-
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(script("python -m assembly.bench.drivers", run, "bench/drivers", "e-Series only, shorter runs",
+                            __doc__.split("\n\n")[0]))

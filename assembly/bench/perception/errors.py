@@ -21,13 +21,13 @@ fitted model, which draws its errors afresh every tick: signals mode does not ca
 
 from __future__ import annotations
 
-import argparse
 import itertools
 import json
 from pathlib import Path
 
 import numpy as np
 
+from assembly.bench import script
 from assembly.bench.perception import report
 from assembly.bench.perception.recording import Recording, Tick, first_element_only, record
 from drivers.sim.models.pipeline_errors import IMAGE_SCALE, PipelineErrors, image_motion
@@ -223,9 +223,5 @@ def run(out_dir: Path, quick: bool = False) -> list[Path]:
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser(prog="python -m assembly.bench.perception.errors", description=__doc__)
-    parser.add_argument("--out", type=Path, default=Path("bench/perception_errors"), help="output directory")
-    parser.add_argument("--quick", action="store_true", help="two short runs (smoke test)")
-    args = parser.parse_args()
-    for path in run(args.out, args.quick):
-        print(path)
+    raise SystemExit(script("python -m assembly.bench.perception.errors", run, "bench/perception_errors",
+                            "two short runs (smoke test)", __doc__))
