@@ -100,8 +100,11 @@ def test_the_recording_reads_each_finger_frame_from_its_worker(tmp_path):
             image, stamp = frames.images[finger]
             assert image.shape == (240, 320, 3) and image.dtype == np.uint8 and image.std() > 5
             assert stamp == state.stamp == cell.clock.now()
+        block = frames._workers["right"]._shared.name  # the worker's image travels in shared memory
+        assert Path("/dev/shm", block).exists()
     finally:
         cell.close()
+    assert not Path("/dev/shm", block).exists()  # removed with the cell
 
 
 def test_a_killed_worker_ends_the_run_fault_naming_its_camera(tmp_path):

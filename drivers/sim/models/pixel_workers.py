@@ -6,26 +6,31 @@ double). A finger's frame costs ~2 ms; on two free cores a tick costs about one 
 
 A tick sends a worker only what its frame needs (marker positions and sizes, the object, its slip
 shift, the stamp) and gets back the TactileState: the same as the in-process path's, bit for bit.
-The camera image comes back only when it is read (`frames`: the run's recording reads a few a
-second). Workers start from a clean process (`forkserver`, else `spawn`: the main process may hold
-threads), ignore Ctrl-C (the main process halts the run and closes the cell, which stops them) and
-leave when the main process is gone. A worker that dies, raises or does not answer within
+Both travel as flat bytes (`pixel_messages`: ~1 and ~2.4 kB, ~20 us a tick to write and read
+against ~120 us as pickles). The camera image comes back only when it is read (`frames`: the run's
+recording reads a few a second), through a shared memory block instead of the pipe. Workers
+start from a clean process (`forkserver`, else `spawn`: the main process may hold threads), ignore
+Ctrl-C (the main process halts the run and closes the cell, which stops them) and leave when the
+main process is gone. A worker that dies, raises or does not answer within
 `REPLY_TIMEOUT` gives unhealthy states naming its camera from then on, never a hang.
 """
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
 import signal
 from collections.abc import Callable, Collection, Mapping
 from multiprocessing.connection import Connection
+from multiprocessing.shared_memory import SharedMemory
 from typing import Any, Protocol
 
 import numpy as np
 
 from drivers.camera_frames import LatestFrames
 from drivers.protocols import DriverFault
+from drivers.sim.models.pixel_messages import StateDecoder, StateEncoder, decode_frame, encode_frame
 from perception.state import FINGERS, ObjectInfo, TactileState
 
 # Fingers processed in a worker when the fingers run in parallel; the others stay in the main process.
@@ -33,6 +38,9 @@ WORKER_FINGERS = ("right",)
 REPLY_TIMEOUT = 10.0  # s a tick waits for a worker's state: generous for a loaded machine
 START_TIMEOUT = 120.0  # s for a worker to start, import the pipeline and calibrate
 CLOSE_TIMEOUT = 5.0  # s a closing worker gets to leave before it is terminated
+# Each message starts with its kind: a frame to process, a request for the newest image, the end;
+# the worker answers ready, a state, an image or an error.
+FRAME, IMAGE, STOP, READY, STATE, ERROR = b"f", b"i", b"q", b"r", b"s", b"e"
 
 Frame = tuple  # (position (N, 2), size (N,), ObjectInfo | None, slip shift px, stamp s)
 
@@ -69,28 +77,48 @@ def _serve(conn: Connection, build: Build, rig: Any) -> None:
     """A worker's life: build and calibrate the finger, then answer frames and image requests until
     told to stop or the main process is gone."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the main process's to handle
-    image, stamp = None, None
+    image, stamp, shared = None, 0.0, None
+    encoder = StateEncoder()
     try:
         finger = build(rig)
-        conn.send(("ready",))
+        conn.send_bytes(READY)
         while True:
             try:
-                message = conn.recv()
+                message = conn.recv_bytes()
             except (EOFError, OSError):  # the main process is gone
                 return
-            if message is None:
-                return
-            if message[0] == "frame":
-                state, image = finger.process(*message[1:])
+            if message[:1] == FRAME:
+                state, image = finger.process(*decode_frame(memoryview(message)[1:]))
                 stamp = state.stamp
-                conn.send(("state", state))
+                conn.send_bytes(STATE + encoder.encode(state))
+            elif message[:1] == IMAGE:
+                shared = _share(image, shared)
+                conn.send_bytes(IMAGE + np.array([stamp, *(image.shape if image is not None else (0, 0, 0))]).tobytes()
+                                + (shared.name.encode() if shared is not None else b""))
             else:
-                conn.send(("image", image, stamp))
+                return
     except Exception as exc:  # noqa: BLE001 - any failure goes to the main process, which marks the finger unhealthy
         try:
-            conn.send(("error", f"{type(exc).__name__}: {exc}"))
+            conn.send_bytes(ERROR + f"{type(exc).__name__}: {exc}".encode())
         except OSError:
             pass
+    finally:
+        if shared is not None:
+            shared.close()  # the main process removes it
+
+
+def _share(image: np.ndarray | None, shared: SharedMemory | None) -> SharedMemory | None:
+    """`image` copied into the worker's shared memory block (made when first needed, or again for a
+    larger image); the main process reads it from there (a pipe would carry 230 kB in pieces)."""
+    if image is None:
+        return shared
+    if shared is None or shared.size < image.nbytes:
+        if shared is not None:
+            shared.close()
+            shared.unlink()
+        shared = SharedMemory(create=True, size=image.nbytes)
+    np.ndarray(image.shape, np.uint8, shared.buf)[...] = image
+    return shared
 
 
 class FingerWorker:
@@ -104,13 +132,15 @@ class FingerWorker:
         self.process.start()
         child.close()
         self.failure = ""  # why the worker no longer answers ("" while it works)
+        self._states = StateDecoder(finger)
+        self._shared: SharedMemory | None = None  # the worker's image block, once read
 
     def wait_ready(self, timeout: float) -> None:
         """Block until the worker has calibrated its finger, or raise DriverFault saying why not."""
         reply = self._reply(timeout)
-        if reply is None or reply[0] != "ready":
+        if reply is None or reply[:1] != READY:
             self.close()
-            raise DriverFault(f"{self.failure or reply} while starting - a script that builds a pixel-mode cell "
+            raise DriverFault(f"{self.failure or reply!r} while starting - a script that builds a pixel-mode cell "
                               "needs the `if __name__ == '__main__':` guard; or run pixel mode without workers: "
                               "`pixel_workers: false` in the cell file")
 
@@ -118,15 +148,15 @@ class FingerWorker:
         """Send a frame to process (nothing once the worker has failed)."""
         if not self.failure:
             try:
-                self._conn.send(("frame", *frame))
+                self._conn.send_bytes(FRAME + encode_frame(*frame))
             except OSError as exc:
                 self._fail(f"could not be sent a frame ({exc})")
 
     def state(self, stamp: float) -> TactileState:
         """The state of the frame submitted last, or an unhealthy state naming what went wrong."""
         reply = self._reply(REPLY_TIMEOUT) if not self.failure else None
-        if reply is not None and reply[0] == "state":
-            return reply[1]
+        if reply is not None and reply[:1] == STATE:
+            return self._states.decode(memoryview(reply)[1:])
         return TactileState(self.finger, stamp, healthy=False, health_reason=self.failure)
 
     def image(self) -> tuple[np.ndarray, float] | None:
@@ -134,28 +164,43 @@ class FingerWorker:
         if self.failure:
             return None
         try:
-            self._conn.send(("image",))
+            self._conn.send_bytes(IMAGE)
         except OSError as exc:
             self._fail(f"could not be asked for its image ({exc})")
             return None
         reply = self._reply(REPLY_TIMEOUT)
-        if reply is None or reply[0] != "image" or reply[1] is None:
+        if reply is None or reply[:1] != IMAGE:
             return None
-        return reply[1], reply[2]
+        stamp, *shape = np.frombuffer(reply, float, 4, 1).tolist()
+        if not shape[0]:
+            return None
+        name = reply[33:].decode()
+        if self._shared is None or self._shared.name != name:
+            self._release()
+            self._shared = SharedMemory(name)
+        return np.ndarray([int(d) for d in shape], np.uint8, self._shared.buf).copy(), stamp
 
-    def _reply(self, timeout: float) -> tuple | None:
+    def _release(self) -> None:
+        """Close and remove the shared memory block of the worker's images (the worker may be gone)."""
+        if self._shared is not None:
+            self._shared.close()
+            with contextlib.suppress(FileNotFoundError):
+                self._shared.unlink()
+            self._shared = None
+
+    def _reply(self, timeout: float) -> bytes | None:
         """The worker's next message; None (and the worker failed) when it dies, raises or times out."""
         try:
             if not self._conn.poll(timeout):
                 self._fail(f"did not answer in {timeout:g} s")
                 return None
-            reply = self._conn.recv()
+            reply = self._conn.recv_bytes()
         except (EOFError, OSError):
             self.process.join(CLOSE_TIMEOUT)
             self._fail(f"died (exit code {self.process.exitcode})")
             return None
-        if reply[0] == "error":
-            self._fail(f"raised {reply[1]}")
+        if reply[:1] == ERROR:
+            self._fail(f"raised {reply[1:].decode()}")
             return None
         return reply
 
@@ -169,7 +214,7 @@ class FingerWorker:
     def close(self) -> None:
         """Ask the worker to leave, wait a bounded time, then terminate it."""
         try:
-            self._conn.send(None)
+            self._conn.send_bytes(STOP)
         except OSError:
             pass
         self.process.join(CLOSE_TIMEOUT)
@@ -180,11 +225,12 @@ class FingerWorker:
             self.process.kill()
             self.process.join(CLOSE_TIMEOUT)
         self._conn.close()
+        self._release()
 
 
 class WorkerFrames(LatestFrames):
-    """The newest frame of each finger: kept references for the fingers in the main process, fetched
-    from the workers when read (the recorder reads a few a second; a tick sends no image)."""
+    """The newest frame of each finger: kept references for the fingers in the main process, copied
+    from the workers' shared memory when read (the recorder reads a few a second; a tick sends no image)."""
 
     def __init__(self, workers: Mapping[str, FingerWorker]):
         self._kept: dict[str, tuple[np.ndarray, float]] = {}  # LatestFrames' `images` is computed here
