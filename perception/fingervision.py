@@ -146,8 +146,7 @@ class FingerVision:
         if not self.proximity.has_model:
             return ObjectInfo(), 0.0  # nothing to look for yet; motion models keep adapting
         obj_mask, obj_wide = self.proximity.object_masks(frame)
-        obj = self.proximity.describe(obj_mask)
         if motion is None:
-            return obj, 0.0
+            return self.proximity.describe(obj_mask), 0.0
         slip, cells = object_slip(motion, frame, obj_wide)
-        return dataclasses.replace(obj, motion_cells=cells), slip
+        return self.proximity.describe(obj_mask, cells), slip

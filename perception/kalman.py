@@ -60,6 +60,8 @@ class MarkerKalman:
 
     def restart(self, which: np.ndarray, position: np.ndarray, size: np.ndarray) -> None:
         """Re-initialise the selected markers at the given position and size, at rest."""
+        if not which.any():  # the usual frame: nothing to do (and selecting none costs ~10 us)
+            return
         c = self.cfg.initial_cov
         self.pos[which] = position[which]
         self.size[which] = size[which]
@@ -69,44 +71,45 @@ class MarkerKalman:
     def update(self, z_pos: np.ndarray, z_size: np.ndarray, valid: np.ndarray):
         """Filter one frame: (N, 2) positions and (N,) sizes, used where `valid`; returns (pos, size)."""
         q, r, dt = self.cfg.process_noise, self.cfg.measurement_noise, self.dt
-        v = valid
+        # Every step is computed on all markers and stored where `valid` (`where=`): the same
+        # arithmetic per marker as picking the valid ones out, in fewer (small-array) numpy calls.
+        v, v2 = valid, valid[:, None]
         # Predict (measured markers move with their velocity; unmeasured ones hold still).
-        self.pos[v] += dt * self.vel[v]
-        self.p00[v] += 2.0 * dt * self.p01[v] + dt * dt * self.p11[v]
-        self.p01[v] += dt * self.p11[v]
+        np.add(self.pos, dt * self.vel, out=self.pos, where=v2)
+        np.add(self.p00, 2.0 * dt * self.p01 + dt * dt * self.p11, out=self.p00, where=v)
+        np.add(self.p01, dt * self.p11, out=self.p01, where=v)
         self.p00 += q
         self.p11 += q
         self.ps += q
         # Correct.
-        s = self.p00[v] + r
-        nu = z_pos[v] - self.pos[v]
-        k0, k1 = self.p00[v] / s, self.p01[v] / s
-        self.pos[v] += k0[:, None] * nu
-        self.vel[v] += k1[:, None] * nu
-        p01 = self.p01[v]
-        self.p11[v] -= k1 * p01
-        self.p01[v] = (1.0 - k0) * p01
-        self.p00[v] *= 1.0 - k0
-        ks = self.ps[v] / (self.ps[v] + r)
-        self.size[v] += ks * (z_size[v] - self.size[v])
-        self.ps[v] *= 1.0 - ks
+        s = self.p00 + r
+        nu = z_pos - self.pos
+        k0, k1 = self.p00 / s, self.p01 / s
+        np.add(self.pos, k0[:, None] * nu, out=self.pos, where=v2)
+        np.add(self.vel, k1[:, None] * nu, out=self.vel, where=v2)
+        np.subtract(self.p11, k1 * self.p01, out=self.p11, where=v)
+        np.multiply(1.0 - k0, self.p01, out=self.p01, where=v)
+        np.multiply(self.p00, 1.0 - k0, out=self.p00, where=v)
+        ks = self.ps / (self.ps + r)
+        np.add(self.size, ks * (z_size - self.size), out=self.size, where=v)
+        np.multiply(self.ps, 1.0 - ks, out=self.ps, where=v)
+        nu[~v] = 0.0  # no innovation without a measurement
         jump = np.zeros(len(v), bool)
         if self.cfg.reinit_gate > 0:
-            jump[v] = (nu * nu).sum(axis=1) / s > self.cfg.reinit_gate
+            jump = v & ((nu * nu).sum(axis=1) / s > self.cfg.reinit_gate)
         if self.cfg.motion_gate > 0 and self._hood is not None:
             jump |= self._moving(nu, v)
         if jump.any():
             self.restart(jump, z_pos, z_size)
         return self.pos.copy(), self.size.copy()
 
-    def _moving(self, innovation: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    def _moving(self, nu: np.ndarray, valid: np.ndarray) -> np.ndarray:
         """(N,) markers whose neighbourhood (itself and its neighbours) moves: the mean innovation over
         its m markers is too large for noise (m |mean|^2 / sigma^2 above `motion_gate`, chi-square with
         2 dof). sigma is measured on this frame: the spread of each marker's innovation about its
         neighbourhood's mean (robust median). A smooth motion of the skin shows in the mean long before
-        one marker's innovation leaves its noise, so these markers follow their measurement at once."""
-        nu = np.zeros((len(valid), 2))
-        nu[valid] = innovation
+        one marker's innovation leaves its noise, so these markers follow their measurement at once.
+        `nu`: (N, 2) innovations, 0 where not `valid`."""
         count = self._hood @ valid.astype(float)
         mean = (self._hood @ nu) / np.maximum(count, 1.0)[:, None]
         spread = ((nu - mean) ** 2).sum(axis=1)[valid]
