@@ -9,6 +9,7 @@ float32 on their patches only, and blended over the image beneath them by flat p
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -73,12 +74,12 @@ class MarkerPainter:
         """Flat channel indices of the patches from `corner` (N, 2) - `reach` to `corner` + `reach`
         + 1, and which patch pixels fall outside the image (None when all are inside)."""
         w, h = self.image_size
-        off = np.arange(-reach, reach + 2)
-        channel = np.arange(3)[:, None, None, None]
         if corner.min(initial=reach) >= reach and corner[:, 0].max(initial=0) + reach + 1 < w \
                 and corner[:, 1].max(initial=0) + reach + 1 < h:
             start = (corner[:, 1] * w + corner[:, 0]) * 3
-            return channel + 3 * (off[:, None] * w + off[None, :]) + start[:, None, None], None
+            return _patch_offsets(reach, w) + start[:, None, None], None
+        off = np.arange(-reach, reach + 2)
+        channel = np.arange(3)[:, None, None, None]
         gx = corner[:, 0, None, None] + off[None, None, :]
         gy = corner[:, 1, None, None] + off[None, :, None]
         outside = (gx < 0) | (gx >= w) | (gy < 0) | (gy >= h)
@@ -92,3 +93,13 @@ class MarkerPainter:
         drawn = flat[patches.index] * patches.keep
         drawn += patches.ink
         flat[patches.index] = drawn.astype(np.uint8)
+
+
+@functools.lru_cache(maxsize=8)
+def _patch_offsets(reach: int, width: int) -> np.ndarray:
+    """(3, 1, P, P) flat channel index of each patch pixel relative to the patch's corner pixel, in an
+    image `width` px wide: the same for every marker, so computed once per patch size."""
+    off = np.arange(-reach, reach + 2)
+    index = np.arange(3)[:, None, None, None] + 3 * (off[:, None] * width + off[None, :])
+    index.flags.writeable = False
+    return index
