@@ -111,6 +111,10 @@ def run_tree(tree_path: str, cell: str = "sim", seed: int = 0, realtime: bool = 
     if bridge:
         bridge.event("end", status=summary["status"], where=result.where, message=summary["message"])
         bridge.close()
+    elif recorder is not None:  # no event log for the recorder to read the end from: tell it
+        recorder.event("end", status=summary["status"], where=result.where, message=summary["message"])
+    if recorder is not None:
+        recorder.finish()
     if not quiet:
         print(format_summary(summary))
         for made in substituted:

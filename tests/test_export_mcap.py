@@ -106,11 +106,11 @@ def test_node_statuses_match_the_transition_log(assembly):
 
 def test_events_and_load_profile_match_the_logs(assembly):
     run_dir, summary, _, messages = assembly
-    logged = [e for e in _jsonl(run_dir / "events.jsonl") if e["event"] != "end"]  # `end`: after the recording
+    logged = _jsonl(run_dir / "events.jsonl")
     events = [m for _, m in messages["/events"]]
     assert [m["message"].split()[0] for m in events] == [e["event"] for e in logged] == [
-        "start", "placing", "placed", "halted"]
-    assert [m["level"] for m in events] == [2, 2, 2, 3]  # INFO, and WARNING for the halt
+        "start", "placing", "placed", "halted", "end"]
+    assert [m["level"] for m in events] == [2, 2, 2, 3, 3]  # INFO, and WARNING for the halt and a TIMEOUT's end
     [(_, profile)] = messages["/task/load_profile"]
     element = summary["elements"]["E1"]
     assert profile["element"] == "E1"

@@ -176,3 +176,69 @@ def test_the_load_profile_grows_during_the_scan(assembly_run):
     assert len(final) == 1 and rows[-1]["tick"] == final[0]  # the whole profile, with its chosen point, last
     growing = [r["tick"] for r in rows[:-1]]
     assert all(b - a >= 29 for a, b in itertools.pairwise(growing))
+
+
+def test_the_end_of_the_run_is_recorded(assembly_run):
+    """The `end` event (status after the scene's verdict, where, message), after the last tick, as in the event log."""
+    summary, run_dir, rec = assembly_run
+    last = rec["events"][-1]
+    assert last["tick"] == summary["ticks"] and last["TextLog:level"] == ["INFO"]
+    kind, details = last["TextLog:text"][0].split(" ", 1)
+    logged = _jsonl(run_dir / "events.jsonl")[-1]
+    assert kind == logged["event"] == "end"
+    assert json.loads(details) == {k: v for k, v in logged.items() if k not in ("time", "event")}
+    assert json.loads(details)["status"] == summary["status"] == "SUCCESS"
+
+
+def test_a_run_without_an_event_log_records_its_end(tmp_path):
+    """A tree with no design has no event log: the session tells the recorder how the run ended."""
+    summary = run_tree(str(ROOT / "trees" / "hold.yaml"), runs_dir=tmp_path, plots=False, quiet=True, max_time=1.0)
+    rec = read_recording(Path(summary["run_dir"]) / "recording.rrd", ["events"])
+    kinds = [r["TextLog:text"][0].split()[0] for r in rec["events"]]
+    assert kinds[-2:] == ["halted", "end"]  # stopped by max_time: the halt, then the end after the halt's tick
+    halt, end = rec["events"][-2:]
+    assert end["tick"] == halt["tick"] + 1 >= summary["ticks"] and end["TextLog:level"] == ["WARN"]
+    assert json.loads(end["TextLog:text"][0].split(" ", 1)[1])["status"] == summary["status"] == "TIMEOUT"
+
+
+def test_reading_only_some_entities(assembly_run):
+    _, run_dir, rec = assembly_run
+    wanted = ["tree/status", "/events", "fv/left/force"]
+    some = read_recording(run_dir / "recording.rrd", wanted)
+    assert some == {e: rec[e] for e in ("tree/status", "events", "fv/left/force")}
+    assert read_recording(run_dir / "recording.rrd", []) == {}
+
+
+def test_batch_columns_give_the_per_tick_arrows_and_end_at_a_calibration():
+    """Each tick's displacement arrows and validity (a field without flags: all tracked); a tick with a
+    new calibration, or one past the batch's capacity, starts the next batch."""
+    from assembly.observe.columns import TickColumns
+    from perception.state import MarkerField, TactileState
+
+    rng = np.random.default_rng(0)
+    first, second = rng.random((4, 2)) * 100, rng.random((4, 2)) * 100
+    fields = [MarkerField(first, first + rng.normal(0, 1, (4, 2)), np.ones(4), np.ones(4), valid)
+              for valid in (np.array([True, False, True, True]), np.zeros(0, bool))]
+    states = [(TactileState("left", 0.0, f), TactileState("right", 0.0, f)) for f in fields]
+    columns = TickColumns(2, states[0])
+    for tick, pair in enumerate(states):
+        assert columns.takes(pair)
+        columns.add(tick, tick / 30.0, np.arange(6.0), np.zeros(6), 0.04, True, pair)
+    arrows, valid = columns.arrows(1)
+    for i, f in enumerate(fields):
+        assert np.array_equal(arrows[i], f.position - f.origin)
+    assert valid.tolist() == [[True, False, True, True], [True] * 4]
+    assert columns.finger_table(0, valid)[:, 12].tolist() == [0.75, 1.0]  # the share of valid markers
+    assert columns.robot_table()[:, 13].tolist() == [1.0, 1.0] and not columns.takes(states[0])  # full
+    calibrated = TactileState("left", 0.0, MarkerField(second, second, np.ones(4), np.ones(4)))
+    assert not TickColumns(5, states[0]).takes((calibrated, states[0][1]))
+
+
+def test_a_recording_cut_inside_a_message_reads_up_to_it(assembly_run, tmp_path):
+    """SIGKILL while a batch is written leaves its message cut: the whole messages before it are read."""
+    _, run_dir, rec = assembly_run
+    data = (run_dir / "recording.rrd").read_bytes()
+    cut = tmp_path / "cut.rrd"
+    cut.write_bytes(data[:len(data) // 2])
+    poses = [r["tick"] for r in read_recording(cut, ["robot/pose"])["robot/pose"] if r["tick"] is not None]
+    assert 0 < len(poses) < len(rec["robot/pose"]) - 1 and poses == list(range(len(poses)))

@@ -6,9 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from assembly.observe.recorder import _arrows
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
-from perception.state import MarkerField, ObjectInfo
+from perception.state import ObjectInfo
 
 
 def _contacts() -> list[FingerContact]:
@@ -42,17 +41,3 @@ def test_an_unloaded_fingertip_gives_the_states_of_the_general_path(errors):
         states.append(a)
     assert states[0].markers.position is not states[1].markers.position  # never one array handed out twice
     assert not np.array_equal(states[0].markers.position, states[1].markers.position)  # noise on the rest field
-
-
-def test_the_batch_arrows_are_the_per_tick_displacements():
-    rng = np.random.default_rng(0)
-    first, second = rng.random((4, 2)) * 100, rng.random((4, 2)) * 100  # a calibration within the batch
-    fields = [MarkerField(origin, origin + rng.normal(0, 1, (4, 2)), np.ones(4), np.ones(4), valid)
-              for origin, valid in ((first, np.array([True, False, True, True])), (first, np.zeros(0, bool)),
-                                    (second, np.array([False, False, True, True])))]
-    arrows, valid = _arrows(fields)
-    for i, f in enumerate(fields):
-        assert np.array_equal(arrows[i], f.position - f.origin)
-    assert valid.tolist() == [[True, False, True, True], [True] * 4, [False, False, True, True]]
-    same_origin, _ = _arrows(fields[:2])
-    assert np.array_equal(same_origin, arrows[:2])

@@ -45,6 +45,9 @@ def one_run(record_to: Path | None, max_time: float = 3600.0) -> dict:
         cpu = time.process_time() - cpu
         gc.unfreeze()
         cell.close()
+    if recorder is not None:
+        recorder.event("end", status=result.status, where=result.where, message=result.message)
+        recorder.finish()
     size = record_to.stat().st_size if record_to else 0
     return {"recording": record_to is not None, "status": result.status, "ticks": result.ticks,
             "cell_time_s": result.sim_time, "wall_s": result.wall_time, "cpu_s": cpu,

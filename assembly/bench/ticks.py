@@ -139,6 +139,7 @@ def _assembly(timed: bool, seed: int, cell_file: str = "sim", perception: str | 
             gc.unfreeze()
             cell.close()
             bridge.close()
+            runner.recorder.finish()  # the event log's end goes in and the recording's file is complete
     return doc, runner, result, cell, cpu
 
 

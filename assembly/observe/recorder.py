@@ -6,12 +6,14 @@ wrench, gripper width and object flag, the tool's 3-D transform, and per finger 
 displacement arrows, force, torque, slip, object area/centroid/orientation and health. When they
 change: node statuses (graph colours and a structured `tree/status` row with the feedback), the
 marker origins and validity, the feedback of running nodes (`tree/feedback`: e.g. each sample of a
-load scan), the element being built, the load profile, the events of the run
-(placements, faults, halts) with the placed elements in 3-D. Every command that passes the safety
-gate of arm and gripper (`Guard.observers`). Each finger's camera frame as a JPEG under its marker
+load scan), the element being built, the load profile, the events of the run (placements, faults,
+halts, and its `end` with status and cause) with the placed elements in 3-D. Every command that
+passes the safety gate of arm and gripper (`Guard.observers`). Each finger's camera frame as a JPEG under its marker
 arrows (`fv/<finger>/markers/image`), `images_hz` times a second of cell time, when the perception
 source has images (pixel mode, real cameras: `drivers.camera_frames`). A batch is sent every `batch`
 ticks or `max_wait` s of wall time, whichever comes first, so a killed run keeps all but its last batch.
+A tick writes references into the batch's column lists (`columns.TickColumns`); the drawings of a load
+scan in progress go with the batch too.
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ from py_trees.common import Status
 from assembly.design import DesignModel
 from assembly.loader import BuiltTree
 from assembly.observe import IMAGE_HZ
-from assembly.observe.columns import Sparse, time_columns
+from assembly.observe.columns import Sparse, TickColumns
 from assembly.observe.layout import default_blueprint
 from assembly.observe.scene3d import element_box, plate_boxes, quaternions
 from assembly.observe.tree_graph import tree_graph
@@ -43,17 +45,19 @@ from perception.state import FINGERS
 
 APPLICATION = "fvtree"
 RECORDING_FILE = "recording.rrd"
+# Scalar entities: their first column in `TickColumns.robot_table` and `finger_table`, and their names.
 ROBOT = {"robot/pose": (0, ["x", "y", "z", "rx", "ry", "rz"]),
          "robot/wrench": (6, ["fx", "fy", "fz", "tx", "ty", "tz"]),
          "gripper/width": (12, ["width"]), "gripper/object": (13, ["object"])}
 FINGER = {"force": (0, ["x", "y", "z"]), "torque": (3, ["x", "y", "z"]), "slip": (6, ["slip"]),
           "object": (7, ["area", "centroid x", "centroid y", "orientation"]),
           "health": (11, ["healthy", "valid markers", "object present"])}
-ROBOT_WIDTH, FINGER_WIDTH = 14, 14  # scalars per tick: robot and gripper, each finger
 VALID_RGBA, INVALID_RGBA = np.uint32(0x3CB44BFF), np.uint32(0xDC322FFF)  # tracked, lost markers (packed RGBA)
 EVENT_LEVELS = {"crashed": "CRITICAL", "halted": "WARN", "failed": "WARN"}
+END_LEVELS = {"SUCCESS": "INFO", "CRASHED": "CRITICAL"}  # the `end` event by the run's status (else WARN)
 NODE_RADIUS = 14.0  # tree graph nodes, in the graph's units (nodes are X_STEP apart)
-STATUS, FEEDBACK = attrgetter("status"), attrgetter("feedback_message")
+STATE = attrgetter("status", "feedback_message")
+LOAD_RGB = (150, 150, 150)  # the load line of a profile
 PROFILE_HEIGHT = 0.4  # the load profile is drawn this high for its span (a 2-D view keeps aspect)
 SCAN_PERIOD = 1.0  # s of cell time between two drawings of a load scan in progress
 JPEG_QUALITY = 85  # camera frames: about 13 kB each at 320x240, 0.15 ms to encode
@@ -81,20 +85,19 @@ class RunRecorder:
         self.stream.set_log_time_enabled(False)  # the run's own timelines only: replays are deterministic
         self.stream.set_log_tick_enabled(False)
         self._nodes = list(tree.nodes.items())
+        self._paths = [path for path, _ in self._nodes]
         self._graph = tree_graph(tree.document.root)
         self._order = {p: i for i, p in enumerate(self._graph.paths)}
         self._statuses = ["INVALID"] * len(self._graph.paths)
-        self._last = {path: Status.INVALID for path, _ in self._nodes}
-        self._rows: list[tuple] = []  # per tick: tick, cell time, pose, wrench, width, object, each finger's state
-        self._sizes: tuple[int, ...] = ()  # markers per finger in the kept rows
-        self._n = 0
+        self._last = [Status.INVALID] * len(self._nodes)  # each node's last recorded status and feedback
+        self._feedback = [""] * len(self._nodes)
+        self._columns = TickColumns(0)  # the batch's ticks (made at its first tick, for its calibrations)
         self._next_tick = 0  # the tick that commands sent now belong to
         self._sent_at = time.perf_counter()
         self._sparse = {name: Sparse() for name in ("status", "transitions", "feedback", "graph", "commands/arm",
                                                     "commands/gripper")}
-        self._feedback = {path: "" for path, _ in self._nodes}
         self._node_objects = [node for _, node in self._nodes]
-        self._seen: tuple[list, list] = ([], [])  # every node's status and feedback at the last tick
+        self._seen: list[tuple] = []  # every node's (status, feedback) at the last tick
         self._origins: dict[str, np.ndarray | None] = {f: None for f in FINGERS}
         self._origins_logged = False  # new origins logged since the last batch (to be written before its arrows)
         self._element = self._profile = self._scan = None
@@ -102,7 +105,7 @@ class RunRecorder:
         self._design = design
         self._events = events
         self._events_read = 0
-        self._closed = False
+        self._closed = self._finished = False
         self._static(tree)
         for guard in (cell.arm, cell.gripper):
             if hasattr(guard, "observers"):
@@ -137,33 +140,31 @@ class RunRecorder:
         self.record(tree.count)
 
     def record(self, tick: int) -> None:
-        """Keep this tick's row (the snapshot the tree acted on, and the statuses it left): references to
-        the tick's readings (the perception stage publishes new ones every tick and never changes one it
-        handed out); the columns, marker arrows included, are built once per batch in `send`."""
+        """Write this tick's row (the snapshot the tree acted on, and the statuses it left) into the
+        batch's columns, and log what changed."""
         if self._closed:
             return
         storage = Blackboard.storage
         now = self.cell.clock.now()
         states = (storage[keys.FV_LEFT], storage[keys.FV_RIGHT])
-        sizes = (len(states[0].markers), len(states[1].markers))
-        if sizes != self._sizes:  # a new calibration may change the number of markers: send the rows so far
-            if self._n:
+        columns = self._columns
+        if not columns.takes(states):  # a full batch, or a new calibration: the rows so far are sent first
+            if columns.n:
                 self.send()
-            self._sizes = sizes
+            columns = self._columns = TickColumns(self.batch, states)
+            for finger, state in zip(FINGERS, states):
+                if self._origins[finger] is not state.markers.origin:
+                    self._calibrated(tick, now, finger, state.markers)
         self._next_tick = tick + 1  # commands sent from now on belong to the next tick
-        self._rows.append((tick, now, storage[keys.ROBOT_POSE], storage[keys.ROBOT_WRENCH],
-                           storage[keys.GRIPPER_WIDTH], storage[keys.GRIPPER_OBJECT], *states))
-        for finger, state in zip(FINGERS, states):
-            if self._origins[finger] is not state.markers.origin:
-                self._calibrated(tick, now, finger, state.markers)
-        self._n += 1
+        columns.add(tick, now, storage[keys.ROBOT_POSE], storage[keys.ROBOT_WRENCH], storage[keys.GRIPPER_WIDTH],
+                    storage[keys.GRIPPER_OBJECT], states)
         if self._frames is not None and now + 1e-9 >= self._next_image:  # 1e-9: cell time is a sum of periods
             self._images(tick, now)
         self._tree(tick, now)
         self._task(tick, now, storage)
         if self._events is not None:
             self._read_events(tick, now)
-        if self._n == self.batch or time.perf_counter() - self._sent_at > self.max_wait:
+        if columns.n == columns.capacity or time.perf_counter() - self._sent_at > self.max_wait:
             self.send()
 
     def _calibrated(self, tick: int, now: float, finger: str, markers) -> None:
@@ -185,25 +186,29 @@ class RunRecorder:
                          rr.EncodedImage(contents=jpeg.tobytes(), media_type="image/jpeg"))
 
     def _tree(self, tick: int, now: float) -> None:
-        nodes = self._node_objects
-        seen = (list(map(STATUS, nodes)), list(map(FEEDBACK, nodes)))
-        if seen == self._seen:  # the usual tick: no status and no feedback changed
+        """Status changes (with the feedback) and new feedback of running nodes; only the nodes whose
+        status or feedback changed since the last tick are looked at."""
+        seen = list(map(STATE, self._node_objects))
+        last = self._seen
+        if seen == last:  # the usual tick: no status and no feedback changed
             return
         self._seen = seen
         changed = False
-        for path, node in self._nodes:
-            status = node.status
-            if status is self._last[path]:
-                if status is Status.RUNNING and node.feedback_message != self._feedback[path]:
-                    self._feedback[path] = node.feedback_message
-                    self._sparse["feedback"].add(tick, now, f"{path}: {node.feedback_message}")
+        for k, state in enumerate(seen):
+            if last and state == last[k]:
                 continue
-            self._feedback[path] = node.feedback_message
-            before = self._last[path]
-            self._last[path] = status
+            status, feedback = state
+            path = self._paths[k]
+            before = self._last[k]
+            if status is before:
+                if status is Status.RUNNING and feedback != self._feedback[k]:
+                    self._feedback[k] = feedback
+                    self._sparse["feedback"].add(tick, now, f"{path}: {feedback}")
+                continue
+            self._feedback[k] = feedback
+            self._last[k] = status
             self._statuses[self._order[path]] = status.name
             changed = True
-            feedback = node.feedback_message
             self._sparse["status"].add(tick, now, (path, status.name, feedback))
             self._sparse["transitions"].add(
                 tick, now, (f"{path}: {before.name} -> {status.name}" + (f" ({feedback})" if feedback else ""),
@@ -235,9 +240,13 @@ class RunRecorder:
         """The samples of a load scan so far, drawn as the profile's load line grows."""
         x = np.asarray(scan["position"], float)
         loads = np.asarray(scan["load"][:len(x)], float)
-        scale = _profile_scale(loads)
-        self._at(tick, now, f"task/load_profile/{element}/load",
-                 rr.LineStrips2D([np.c_[x, loads * scale]], colors=[(150, 150, 150)]))
+        self._load_line(tick, now, element, x, loads, _profile_scale(loads))
+
+    def _load_line(self, tick: int, now: float, element: str, x: np.ndarray, loads: np.ndarray, scale: float) -> None:
+        """A drawing of the load line of `element`'s profile, sent with the batch (one call for all the
+        drawings of a scan in it, in their order)."""
+        entity = f"task/load_profile/{element}/load"
+        self._sparse.setdefault(entity, Sparse()).add(tick, now, np.c_[x, loads * scale])
 
     def _log_profile(self, tick: int, now: float, profile: dict, element: str) -> None:
         """The scan's load along the plate (x: m along the span; y: load scaled to the drawing's
@@ -246,7 +255,7 @@ class RunRecorder:
         loads, smoothed = np.asarray(profile["load"], float), np.asarray(profile["smoothed"], float)
         scale = _profile_scale(loads)
         base = f"task/load_profile/{element}"
-        self._at(tick, now, f"{base}/load", rr.LineStrips2D([np.c_[x, loads * scale]], colors=[(150, 150, 150)]))
+        self._load_line(tick, now, element, x, loads, scale)
         self._at(tick, now, f"{base}/smoothed", rr.LineStrips2D([np.c_[x, smoothed * scale]], colors=[(70, 130, 230)]))
         self._at(tick, now, f"{base}/best", rr.Points2D(
             [[profile["best_position"], profile["best_load"] * scale]], radii=[0.01], colors=[(220, 50, 47)],
@@ -274,14 +283,16 @@ class RunRecorder:
     def _event(self, tick: int, now: float, event: dict) -> None:
         kind = event.get("event", "?")
         details = {k: v for k, v in event.items() if k not in ("time", "event", "traceback")}
-        self._at(tick, now, "events", rr.TextLog(f"{kind} {json.dumps(details)}", level=EVENT_LEVELS.get(kind, "INFO")))
+        level = END_LEVELS.get(event.get("status"), "WARN") if kind == "end" else EVENT_LEVELS.get(kind, "INFO")
+        self._at(tick, now, "events", rr.TextLog(f"{kind} {json.dumps(details)}", level=level))
         eid = event.get("element")
         if self._design is not None and eid in self._design.elements() and event.get("status"):
             element = {"id": eid, **self._design.elements()[eid], "asbuilt_pose": event.get("pose")}
             self._at(tick, now, f"cell/elements/{eid}", element_box(element, event["status"]))
 
     def event(self, kind: str, **data: Any) -> None:
-        """Record an event the run itself reports (a halt or a crash of a run with no event log)."""
+        """Record an event the run itself reports (a halt, a crash or the end of a run with no event log);
+        also after `close`, until `finish`."""
         self._event(self._next_tick, self.cell.clock.now(), {"event": kind, **data})
 
     def command(self, device: str, what: str, args: tuple) -> None:
@@ -299,62 +310,34 @@ class RunRecorder:
 
     # ---- sending -----------------------------------------------------------------------------------
     def send(self) -> None:
-        """Send the kept rows as columns, one call per entity: the sparse rows (statuses, commands) first,
+        """Send the batch's rows as columns, one call per entity: the sparse rows (statuses, commands) first,
         so that a run killed while a batch is written keeps them with any of its ticks."""
-        n = self._n
+        columns = self._columns
+        n = columns.n
         send = self.stream.send_columns
         if self._origins_logged:  # logged rows wait in Rerun's batcher: the origins go first, as they came first
             self.stream.flush()
             self._origins_logged = False
         self._send_sparse()
         if n:
-            rows = self._rows
-            index = time_columns(np.array([r[0] for r in rows], np.int64), np.array([r[1] for r in rows]))
-            arrows = [_arrows([r[6 + k].markers for r in rows]) for k in range(len(FINGERS))]
-            table = self._table(rows, [valid for _, valid in arrows])
+            index = columns.index()
+            table = columns.robot_table()
             for entity, (start, names) in ROBOT.items():
                 send(entity, index, rr.Scalars.columns(scalars=table[:, start:start + len(names)]))
             send("cell/tool", index, rr.Transform3D.columns(translation=table[:, 0:3],
                                                               quaternion=quaternions(table[:, 3:6])))
             for k, finger in enumerate(FINGERS):
-                base = ROBOT_WIDTH + FINGER_WIDTH * k
+                vectors, valid = columns.arrows(k)
+                table = columns.finger_table(k, valid)
                 for what, (start, names) in FINGER.items():
-                    send(f"fv/{finger}/{what}", index,
-                         rr.Scalars.columns(scalars=table[:, base + start:base + start + len(names)]))
-                vectors, valid = arrows[k]
+                    send(f"fv/{finger}/{what}", index, rr.Scalars.columns(scalars=table[:, start:start + len(names)]))
                 m = valid.shape[1]
                 if m:
                     send(f"fv/{finger}/markers", index, rr.Arrows2D.columns(
                         vectors=vectors.reshape(-1, 2).astype(np.float32),
-                        colors=np.where(valid.reshape(-1), VALID_RGBA, INVALID_RGBA)).partition([m] * n))
-        self._n = 0
-        self._rows = []
+                        colors=np.where(valid.reshape(-1), VALID_RGBA, INVALID_RGBA)).partition(np.full(n, m)))
+        self._columns = TickColumns(0)  # the next tick starts the next batch
         self._sent_at = time.perf_counter()
-
-    def _table(self, rows: list[tuple], valid: list[np.ndarray]) -> np.ndarray:
-        """(n, ROBOT_WIDTH + FINGER_WIDTH * fingers) scalars of the kept rows, laid out as `ROBOT` and
-        `FINGER` say (`valid`: each finger's (n, markers) validity): built a column at a time, once per batch."""
-        n = len(rows)
-        table = np.empty((n, ROBOT_WIDTH + FINGER_WIDTH * len(FINGERS)))
-        table[:, 0:6] = [r[2] for r in rows]
-        table[:, 6:12] = [r[3] for r in rows]
-        table[:, 12] = [r[4] for r in rows]
-        table[:, 13] = [r[5] for r in rows]
-        for k, finger in enumerate(FINGERS):
-            states = [r[6 + k] for r in rows]
-            objects = [s.obj for s in states]
-            base = ROBOT_WIDTH + FINGER_WIDTH * k
-            block = table[:, base:base + FINGER_WIDTH]
-            block[:, 0:3] = [s.force for s in states]
-            block[:, 3:6] = [s.torque for s in states]
-            block[:, 6] = [s.slip for s in states]
-            block[:, 7] = [o.area for o in objects]
-            block[:, 8:10] = [o.centroid for o in objects]
-            block[:, 10] = [o.orientation for o in objects]
-            block[:, 11] = [s.healthy for s in states]
-            block[:, 12] = valid[k].mean(axis=1) if valid[k].shape[1] else 0.0
-            block[:, 13] = [o.present for o in objects]
-        return table
 
     def _send_sparse(self) -> None:
         send = self.stream.send_columns
@@ -383,9 +366,17 @@ class RunRecorder:
             if taken:
                 index, rows = taken
                 send(f"commands/{device}", index, rr.TextLog.columns(text=[_command_text(*r) for r in rows]))
+        for entity, sparse in self._sparse.items():
+            if entity.startswith("task/load_profile/"):
+                taken = sparse.take()
+                if taken:
+                    index, strips = taken
+                    send(entity, index, rr.LineStrips2D.columns(strips=strips, colors=[LOAD_RGB] * len(strips)))
 
     def close(self) -> None:
-        """Send what is kept, write it out and detach from the safety gates; later ticks are dropped."""
+        """The run's ticks are over: send what is kept, write it out and detach from the safety gates;
+        later ticks are dropped. Events still go in (the run's `end`, written once its verdict is known)
+        until `finish`."""
         if self._closed:
             return
         self.send()
@@ -394,22 +385,17 @@ class RunRecorder:
             if self.command in getattr(guard, "observers", []):
                 guard.observers.remove(self.command)
         self.stream.flush()
-        self.stream.disconnect()
 
-
-def _arrows(fields: list) -> tuple[np.ndarray, np.ndarray]:
-    """(n, markers, 2) displacement arrows and (n, markers) validity of a batch's marker fields (all of
-    one size; a field with no validity flags has every marker tracked)."""
-    n, m = len(fields), len(fields[0])
-    positions = np.array([f.position for f in fields], float).reshape(n, m, 2)
-    origin = fields[0].origin
-    if all(f.origin is origin for f in fields):
-        arrows = np.subtract(positions, origin, out=positions)
-    else:  # a calibration within the batch
-        arrows = np.subtract(positions, np.array([f.origin for f in fields], float).reshape(n, m, 2), out=positions)
-    every = np.ones(m, bool)
-    valid = np.array([f.valid if len(f.valid) else every for f in fields], bool).reshape(n, m)
-    return arrows, valid
+    def finish(self) -> None:
+        """Close, record what the event log gained since the last tick (the `end` event), and end the
+        recording (its file is complete)."""
+        self.close()
+        if not self._finished:
+            self._finished = True
+            if self._events is not None:
+                self._read_events(self._next_tick, self.cell.clock.now())
+            self.stream.flush()
+            self.stream.disconnect()
 
 
 def _profile_scale(loads: np.ndarray) -> float:
