@@ -170,6 +170,7 @@ def _stable(images, greys, xy, diameter, config: FingerVisionConfig):
     # is recorded (its ring's dark share), not held against it.
     loose = dataclasses.replace(config.tracker, max_size_change=np.inf, consistency=0.0, max_ring_dark=1.0)
     tracker = make_tracker(loose, config.threshold, make_detector(config.detector), xy, diameter)
+    tracker.regrow = False  # the candidates' sizes are the detector's: no growth to measure against them
     tracks, rings = [], []
     for f, g in zip(images, greys):
         tracks.append(tracker.step(f, g))

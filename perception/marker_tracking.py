@@ -9,11 +9,15 @@ the size change, count failures and reset a marker to its origin after more than
   window  vectorised over all markers: a darkness-weighted centroid in a small window with a local
           threshold (robust to lighting), measured again where a marker moved off the window
           centre; markers that converge on one blob, and markers touched by something dark (the
-          ring around them darker than at calibration), are flagged.
+          ring around them darker than at calibration), are flagged. Markers that moved further in
+          one frame than the window reaches or the jump gate allows (a load taken up at once: a
+          dense shear, largest inside the contact) are looked for again where their neighbours
+          moved this frame, and gated against that place.
 An optional consistency check flags markers whose displacement leaves the local affine deformation
 of their neighbours (a swap or a marker caught on a dark background feature), so that a firm shear
 or twist, whose neighbours differ by a smooth gradient, passes. With `lost: neighbours` a lost
-marker is searched where that deformation puts it, not reset to its origin.
+marker is searched where that deformation puts it, not reset to its origin, and one started again
+takes the size its neighbours grew to.
 """
 
 from __future__ import annotations
@@ -21,13 +25,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
+from numpy.lib.stride_tricks import as_strided
 from scipy.optimize import linear_sum_assignment
 
 from perception.config import ThresholdConfig, TrackerConfig
 from perception.detect import Detector, marker_mask
 
 _INFEASIBLE = 1e9
+RECENTRE = 3  # window tracker: re-measures of a marker found off its window centre
+FOLLOW_ROUNDS = 3  # window tracker: rounds of looking for markers where their neighbours moved
 
 
 @dataclass(frozen=True)
@@ -110,6 +116,10 @@ def inconsistent(fit: LocalFit, displacement: np.ndarray, ok: np.ndarray, tolera
 class MarkerTracker:
     """Shared state and bookkeeping; subclasses implement `_measure` for one frame."""
 
+    # A marker started again takes the size its tracked neighbours grew to (with `lost: neighbours`);
+    # off where the origin sizes are not the tracker's own measurements (calibration's candidates).
+    regrow = True
+
     def __init__(self, cfg: TrackerConfig, origin: np.ndarray, origin_size: np.ndarray):
         if len(origin) == 0:
             raise ValueError("cannot track an empty marker map; calibrate on frames showing markers")
@@ -146,13 +156,14 @@ class MarkerTracker:
         restarted = self.failures > self.cfg.n_reset
         self.size[restarted] = self.origin_size[restarted]
         if self.cfg.lost == "neighbours":
-            self._refind()
+            self._refind(restarted)
         else:
             self.position[restarted] = self.origin[restarted]
         self.failures[restarted] = 0
-        xy, size, ok = self._measure(bgr, grey, self.position, self.size)
-        ok &= np.linalg.norm(xy - self.position, axis=1) < self.cfg.max_jump
-        ok &= np.abs(size - self.size) < self.cfg.max_size_change
+        xy, size, seen = self._measure(bgr, grey, self.position, self.size)
+        ok = seen & self._gate(xy, size, self.position, self.size)
+        if not ok.all():
+            xy, size, ok = self._follow(grey, xy, size, seen, ok)
         if self.cfg.consistency > 0:
             ok &= ~inconsistent(self._fit, xy - self.origin, ok, self.cfg.consistency)
         self.position[ok] = xy[ok]
@@ -161,9 +172,21 @@ class MarkerTracker:
         self.failures[~ok] += 1
         return TrackResult(self.position.copy(), self.size.copy(), ok, restarted)
 
-    def _refind(self) -> None:
+    def _gate(self, xy: np.ndarray, size: np.ndarray, expected: np.ndarray, last_size: np.ndarray) -> np.ndarray:
+        """Measurements within `max_jump` of where each marker was expected and `max_size_change` of its size."""
+        d = xy - expected
+        return ((np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]) < self.cfg.max_jump)
+                & (np.abs(size - last_size) < self.cfg.max_size_change))
+
+    def _follow(self, grey: np.ndarray, xy: np.ndarray, size: np.ndarray, seen: np.ndarray, ok: np.ndarray):
+        """A second look at the markers that failed (the window tracker: where their neighbours moved)."""
+        return xy, size, ok
+
+    def _refind(self, restarted: np.ndarray) -> None:
         """Search for each lost marker where its tracked neighbours' local deformation puts it (the
-        origin when fewer than two of them are tracked), not where it was last seen."""
+        origin when fewer than two of them are tracked), not where it was last seen; a marker started
+        again gets the size its tracked neighbours grew to (a firm press grows the markers beyond the
+        area check of their rest size, so they could never be found again)."""
         lost = self.failures > 0
         if not lost.any():
             return
@@ -172,6 +195,12 @@ class MarkerTracker:
         self.position[known] = self.origin[known] + predicted[known]
         alone = lost & ~known & (self.failures > self.cfg.n_reset)
         self.position[alone] = self.origin[alone]
+        grown = restarted & known
+        if self.regrow and grown.any():
+            nb = self._fit.neighbours[grown]
+            tracked = ~lost[nb]
+            growth = (self.size[nb] / self.origin_size[nb] * tracked).sum(axis=1) / tracked.sum(axis=1)
+            self.size[grown] = self.origin_size[grown] * growth
 
     def _measure(self, bgr, grey, pred_xy, pred_size):
         raise NotImplementedError
@@ -287,12 +316,14 @@ class WindowTracker(MarkerTracker):
         h, w = grey.shape
         if h < size or w < size:
             raise ValueError(f"image {w}x{h} is smaller than one tracking window ({size} px)")
-        cx = np.clip(np.rint(centre[:, 0]).astype(int), half, w - 1 - half)
-        cy = np.clip(np.rint(centre[:, 1]).astype(int), half, h - 1 - half)
-        p = sliding_window_view(grey, (size, size))[cy - half, cx - half]  # (N, P, P) float32
+        cx, cy = np.clip(np.rint(centre).astype(int), half, (w - 1 - half, h - 1 - half)).T
+        # Every window of the image as a view (sliding_window_view without its checks), then a copy of
+        # the markers' windows only, in float32.
+        views = as_strided(grey, (h - size + 1, w - size + 1, size, size), grey.strides * 2, writeable=False)
+        p = views[cy - half, cx - half].astype(np.float32)  # (N, P, P)
         ring = np.concatenate([p[:, 0, :], p[:, -1, :], p[:, 1:-1, 0], p[:, 1:-1, -1]], axis=1)
         m = ring.shape[1] // 2  # the border has an even number of pixels: median of the middle two
-        ring.partition((m - 1, m), axis=1)
+        ring.sort(axis=1)  # (quicker than a partition on these short rows, and the same middle values)
         bg = 0.5 * (ring[:, m - 1] + ring[:, m])  # robust to a bright or dark feature touching the window
         dark = p.min(axis=(1, 2))
         level = 0.5 * (bg + dark)[:, None, None]
@@ -301,32 +332,84 @@ class WindowTracker(MarkerTracker):
         count = inside.sum(axis=(1, 2))
         core = (p * inside).sum(axis=(1, 2)) / np.maximum(count, 1)
         cover = (bg[:, None, None] - p) / np.maximum(bg - core, 1.0)[:, None, None]
-        area = np.where((cover > 0.15) & disc, np.minimum(cover, 1.0), 0).sum(axis=(1, 2))
+        covered = (cover > 0.15) & disc
+        np.minimum(cover, 1.0, out=cover)
+        cover[~covered] = 0.0
+        area = cover.sum(axis=(1, 2))
         total = below.sum(axis=(1, 2)) + np.float32(1e-6)
-        xy = np.column_stack([cx + (below.sum(axis=1) @ self._off) / total,
-                              cy + (below.sum(axis=2) @ self._off) / total])
+        xy = np.empty((len(p), 2))
+        xy[:, 0] = cx + (below.sum(axis=1) @ self._off) / total
+        xy[:, 1] = cy + (below.sum(axis=2) @ self._off) / total
         ring_dark = (self._ring[which] & (p < level)).sum(axis=(1, 2)) / self._ring_size[which]
         return xy, 2.0 * np.sqrt(area / np.pi), bg - dark, count, ring_dark
 
     def _measure(self, bgr, grey, pred_xy, pred_size):
-        g = grey.astype(np.float32)
-        xy, size, contrast, count, ring_dark = self._window(g, pred_xy, slice(None))
-        moved = np.abs(xy - np.rint(pred_xy)).max(axis=1) > 1.0
-        if moved.any():  # the marker may be cut by the window edge: measure it again where it is
-            again = self._window(g, xy[moved], moved)
+        xy, size, ok, self.ring = self._look(grey, pred_xy, slice(None), pred_size, 1)
+        return xy, size, ok & ~self._clash(xy, ok)
+
+    def _look(self, grey: np.ndarray, centre: np.ndarray, which: slice | np.ndarray, pred_size: np.ndarray,
+              recentre: int):
+        """(positions, diameters, passed the checks, ring dark shares) of the markers `which` measured
+        in windows around `centre`; a marker found off its window centre (it may be cut by the window
+        edge) is measured again where it was found, up to `recentre` times, so that the window follows
+        it."""
+        xy, size, contrast, count, ring_dark = self._window(grey, centre, which)
+        moved = np.flatnonzero(np.abs(xy - np.rint(centre)).max(axis=1) > 1.0)
+        for _ in range(recentre):
+            if not len(moved):
+                break
+            start = xy[moved]
+            again = self._window(grey, start, moved if isinstance(which, slice) else which[moved])
             for full, part in zip((xy, size, contrast, count, ring_dark), again):
                 full[moved] = part
+            moved = moved[np.abs(xy[moved] - np.rint(start)).max(axis=1) > 1.0]
         ratio = count / (np.pi / 4.0 * pred_size * pred_size)  # dark pixels over the expected marker area
         lo, hi = self.cfg.area_range
         ok = (contrast >= self.cfg.min_contrast) & (ratio >= lo) & (ratio <= hi)
         # Something dark came to touch the marker: its measurement may be biased, so it is not trusted.
-        ok &= ring_dark <= self.ring_base + self.cfg.max_ring_dark
-        self.ring = ring_dark
-        if self._min_sep < np.inf and ok.sum() > 1:
-            d = np.linalg.norm(xy[:, None, :] - xy[None, :, :], axis=2)
-            np.fill_diagonal(d, np.inf)
-            clash = (d < self._min_sep) & ok[None, :]
-            ok &= ~clash.any(axis=1)  # two markers on one blob: neither is trusted
+        ok &= ring_dark <= self.ring_base[which] + self.cfg.max_ring_dark
+        return xy, size, ok, ring_dark
+
+    def _clash(self, xy: np.ndarray, ok: np.ndarray) -> np.ndarray:
+        """Markers within half the calibrated spacing of a trusted one: two markers on one blob,
+        neither is trusted."""
+        if not self._min_sep < np.inf or ok.sum() <= 1:
+            return np.zeros(len(xy), bool)
+        trusted = np.flatnonzero(ok)
+        dx = xy[:, 0, None] - xy[trusted, 0]  # (N, trusted): only a trusted marker can clash with another
+        dy = xy[:, 1, None] - xy[trusted, 1]
+        near = np.sqrt(dx * dx + dy * dy) < self._min_sep
+        near[trusted, np.arange(len(trusted))] = False  # not with itself
+        return near.any(axis=1)
+
+    def _follow(self, grey, xy, size, seen, ok):
+        """Markers that moved further in a frame than the window reaches or the jump gate allows
+        (a sudden dense shear: the inner markers move most) are looked for again where the frame's
+        motion of their neighbours (those measured, `seen`) puts them, the window following each
+        marker up to `RECENTRE` times, and gated against that place, not their last one. Rounds
+        reach inwards from the markers found. Only where the neighbourhood moved more than 1 px in
+        the frame; markers trusted at the first look keep their measurement."""
+        again = ~ok
+        motion = np.abs(xy - self.position)[ok | seen]
+        if not len(motion) or motion.max() <= 1.0:  # nothing measured moved more than 1 px: still skin
+            return xy, size, ok
+        for _ in range(FOLLOW_ROUNDS):
+            predicted, count = self._fit.predict(xy - self.position, ok | seen)
+            wide = np.flatnonzero(again & (count >= 2) & (np.abs(predicted).max(axis=1) > 1.0))
+            if not len(wide):
+                break
+            expected = self.position[wide] + predicted[wide]
+            fxy, fsize, fok, fring = self._look(grey, expected, wide, self.size[wide], RECENTRE)
+            fok &= self._gate(fxy, fsize, expected, self.size[wide])
+            xy, size, seen = xy.copy(), size.copy(), seen.copy()
+            xy[wide], size[wide], seen[wide], self.ring[wide] = fxy, fsize, fok, fring
+            found = ok.copy()
+            found[wide] = fok
+            found &= ~self._clash(xy, found)
+            again[wide] = ~found[wide]
+            if np.array_equal(found, ok):
+                break
+            ok = found
         return xy, size, ok
 
 
