@@ -49,43 +49,31 @@ def check_spec(spec: dict, what: str) -> None:
                          "record the data again and retrain")
 
 
-NEAREST = 3  # markers that stand in for a grid cell with none of its own
-_cells: dict[tuple, tuple[np.ndarray, np.ndarray, dict[int, np.ndarray]]] = {}
+_cells: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
 
 
-def _cell_index(markers: MarkerField) -> tuple[np.ndarray, np.ndarray, dict[int, np.ndarray]]:
-    """Grid cell of each marker origin, the markers per cell, and for each cell without markers
-    the NEAREST markers to its centre (cached per layout). A sensor whose calibration found no
-    marker in a corner cell (the round window, an object over the skin) then reports what the
-    skin next to it does, not a still cell."""
+def _cell_index(markers: MarkerField) -> tuple[np.ndarray, np.ndarray]:
+    """Grid cell of each marker origin (cached per layout) and the markers per cell."""
     key = (len(markers), markers.image_size, float(markers.origin[:, 0].sum()) if len(markers) else 0.0)
     if key not in _cells:
         w, h = markers.image_size
         col = np.clip((markers.origin[:, 0] / w * GRID[0]).astype(int), 0, GRID[0] - 1)
         row = np.clip((markers.origin[:, 1] / h * GRID[1]).astype(int), 0, GRID[1] - 1)
         index = row * GRID[0] + col
-        counts = np.bincount(index, minlength=GRID[0] * GRID[1])
-        stand_in = {}
-        for cell in np.flatnonzero(counts == 0).tolist():
-            centre = np.array([(cell % GRID[0] + 0.5) * w / GRID[0], (cell // GRID[0] + 0.5) * h / GRID[1]])
-            stand_in[cell] = np.argsort(np.linalg.norm(markers.origin - centre, axis=1))[:NEAREST]
-        _cells[key] = (index, np.maximum(counts, 1), stand_in)
+        _cells[key] = (index, np.maximum(np.bincount(index, minlength=GRID[0] * GRID[1]), 1))
     return _cells[key]
 
 
 def pooled_markers(markers: MarkerField) -> np.ndarray:
-    """(GRID cells x 3) mean dx, dy and size change of the markers in each cell (of the nearest
-    markers for a cell with none), flattened."""
+    """(GRID cells x 3) mean dx, dy and size change of the markers in each cell, flattened."""
     n = GRID[0] * GRID[1]
     if not len(markers):
         return np.zeros(n * len(MARKER_CHANNELS))
-    index, counts, stand_in = _cell_index(markers)
+    index, counts = _cell_index(markers)
     d = markers.displacement
     per_marker = (d[:, 0], d[:, 1], markers.size_change)
-    pooled = np.column_stack([np.bincount(index, weights=v, minlength=n) / counts for v in per_marker])
-    for cell, nearest in stand_in.items():
-        pooled[cell] = [v[nearest].mean() for v in per_marker]
-    return pooled.ravel()
+    pooled = [np.bincount(index, weights=v, minlength=n) / counts for v in per_marker]
+    return np.column_stack(pooled).ravel()
 
 
 def finger_features(state: TactileState) -> np.ndarray:

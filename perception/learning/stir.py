@@ -30,15 +30,10 @@ PAPER_MODEL = "mlp_3x10_logistic"
 TEST_TRIALS = 48
 
 
-RELATIVE = (".orientation", ".area", ".cx", ".cy")  # signals taken from the trial's start
-
-
 def _signal_matrix(rows: np.ndarray) -> np.ndarray:
     """(T, S) per-tick signals: marker deviation per cell, then the per-finger summaries, with
-    the object's orientation, area and centroid taken from the trial's start: the stick's angle
-    and place in the fingers carry over from earlier trials, and the share of it the proximity
-    mask sees and where it puts its centre belong to the sensor (0.61-0.70 of the area in pixel
-    mode, by sensor); only their change belongs to this trial."""
+    the orientation taken from the trial's start (the stick's angle in the fingers carries over
+    from earlier trials; only its change belongs to this one)."""
     names = columns()
     cells = GRID[0] * GRID[1]
     per_finger = cells * len(MARKER_CHANNELS) + (len(names) // 2 - cells * len(MARKER_CHANNELS))
@@ -48,8 +43,8 @@ def _signal_matrix(rows: np.ndarray) -> np.ndarray:
         grid = rows[:, base:base + cells * len(MARKER_CHANNELS)].reshape(len(rows), cells, len(MARKER_CHANNELS))
         out += [np.hypot(grid[:, :, 0], grid[:, :, 1]), rows[:, base + cells * len(MARKER_CHANNELS):base + per_finger]]
     signals = np.hstack(out)
-    relative = [i for i, name in enumerate(_summary_names()) if name.endswith(RELATIVE)]
-    signals[:, relative] -= signals[0, relative]
+    orientation = [i for i, name in enumerate(_summary_names()) if name.endswith(".orientation")]
+    signals[:, orientation] -= signals[0, orientation]
     return signals
 
 
