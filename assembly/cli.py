@@ -20,7 +20,6 @@ EXIT_USAGE = FvtreeError.exit_code  # bad input: a tree, design, cell or data fi
 BENCHES = {
     "ticks": "assembly.bench.ticks",
     "perception": "assembly.bench.perception",
-    "errors": "assembly.bench.perception.errors",
     "drivers": "assembly.bench.drivers",
     "skills": "assembly.bench.skills",
     "recording": "assembly.bench.recording",

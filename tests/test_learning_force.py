@@ -35,12 +35,9 @@ def test_forcelearn_predicts_within_the_scale_noise(presses):
     _, report = train_force(presses, max_samples=250)
     assert report["r2"] > 0.99
     # From 6 training presses the error is already of the order of the scale's own noise
-    # (the demo model, trained on 15 presses: trees/models/force_sim.report.json). Signals mode
-    # carries the pipeline's persistent marker errors (lag-1 correlation 0.99, losses in runs),
-    # which averaging over ticks does not remove: 0.133 N against the true force (0.101 N when
-    # they were drawn afresh every tick), 0.168 N against the scale (0.142 N).
-    assert report["rmse_vs_true_force"] < 1.5 * report["scale_noise_std"]
-    assert report["rmse"] < 1.9 * report["scale_noise_std"]
+    # (the demo model, trained on 15 presses, is below it: trees/models/force_sim.report.json).
+    assert report["rmse_vs_true_force"] < 1.2 * report["scale_noise_std"]
+    assert report["rmse"] < 1.6 * report["scale_noise_std"]
 
 
 def test_loading_a_model_for_other_features_or_of_another_kind_fails_clearly(tmp_path, monkeypatch):

@@ -101,25 +101,6 @@ def test_signals_mode_markers_jitter_and_drop_out_as_the_pipeline_measured():
     assert 1.0 - tracked[:, lossy].mean() == pytest.approx(e.lossy_rate, abs=0.08)
 
 
-def test_signals_mode_errors_persist_from_tick_to_tick_as_the_pipeline_measured():
-    """Lost markers stay lost for runs of ticks and the noise changes slowly, as in pixel mode:
-    errors drawn afresh every tick would add a texture that StirLearn reads."""
-    from drivers.sim.models.pipeline_errors import PipelineErrors
-
-    e = PipelineErrors()
-    model, exact = _errors_model(seed=3)
-    rest = [model.state(_held(), 0.0) for _ in range(2000)]
-    tracked = np.stack([s.markers.valid for s in rest])
-    lost = ~tracked[:, tracked.mean(axis=0) < 0.9]
-    assert (lost[1:] & lost[:-1]).sum() / lost[:-1].sum() == pytest.approx(e.lossy_hold, abs=0.05)
-    assert lost.mean() == pytest.approx(e.lossy_rate, abs=0.1)
-    error = np.stack([s.markers.position for s in rest]) - exact.state(_held(), 0.0).markers.position
-    steady = tracked[1:] & tracked[:-1]
-    assert np.corrcoef(error[1:][steady].ravel(), error[:-1][steady].ravel())[0, 1] > 0.9
-    area = np.array([s.obj.area for s in rest])
-    assert np.corrcoef(area[1:], area[:-1])[0, 1] == pytest.approx(e.object_corr, abs=0.1)
-
-
 def test_the_error_model_lags_markers_as_a_first_order_filter():
     from drivers.sim.models.pipeline_errors import ErrorModel, PipelineErrors
 
@@ -142,7 +123,7 @@ def test_signals_mode_object_and_slip_carry_the_pipeline_errors():
     areas = np.array([s.obj.area for s in still])
     assert np.median(areas) == pytest.approx(e.area_scale * 0.3, rel=0.05) and areas.std() > 0.0
     assert np.median([s.slip for s in still]) < 0.01  # a held object at rest: only the floor
-    sliding = [model.state(_held(slip=0.3), 0.0).slip for _ in range(2000)]  # 1.2 px/frame; noise persists
+    sliding = [model.state(_held(slip=0.3), 0.0).slip for _ in range(300)]  # 1.2 px/frame of texture
     assert np.median(sliding) == pytest.approx(e.slip_gain * 0.3 * e.slip_saturation, rel=0.2)
     jitter = [model.state(_held((2.0 * (i % 2), 0.0)), 0.0).slip for i in range(300)]  # markers jump, no slip
     assert np.median(jitter) > 10 * np.median([s.slip for s in still])  # MOG2 sees markers move, too

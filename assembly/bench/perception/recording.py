@@ -1,7 +1,6 @@
-"""Runs recorded beside their truth: every tick, what the scene put on each fingertip (the contact
-model's loads, object and slip, and the noise-free marker field it implies) and what the cell
-reported: in pixel mode the real FingerVision pipeline on the rendered frame, in signals mode the
-error model that stands in for it. Read by `errors.py`."""
+"""Pixel-mode runs recorded beside their truth: every tick, what the scene put on each fingertip
+(the contact model's loads, object and slip, and the noise-free marker field it implies) and what
+the real FingerVision pipeline made of the rendered frame. Read by `errors.py`."""
 
 from __future__ import annotations
 
@@ -40,7 +39,6 @@ class Recording:
     status: str
     ticks: dict[str, list[Tick]]
     period: float
-    perception: str = "pixels"
 
 
 def first_element_only(tree: Path, out_dir: Path) -> Path:
@@ -73,21 +71,21 @@ def _order(model_origin: np.ndarray, pipeline_origin: np.ndarray) -> np.ndarray:
     return d.argmin(axis=1)
 
 
-def record(tree: Path, seed: int = 0, max_time: float = 120.0, perception: str = "pixels") -> Recording:
-    """Run `tree` on the simulated cell (pixel or signals mode) and record every tick beside its truth."""
+def record(tree: Path, seed: int = 0, max_time: float = 120.0) -> Recording:
+    """Run `tree` in pixel mode on the simulated cell and record every tick beside its truth."""
     doc = load_tree(tree)
     clear_blackboard()
     scene_args = doc.design.scene_args() if doc.design is not None else {}
-    cell = load_cell("sim", doc.tick_hz, doc.scene, scene_args, seed=seed, perception=perception)
+    cell = load_cell("sim", doc.tick_hz, doc.scene, scene_args, seed=seed, perception="pixels")
     sensor_cfg = yaml.safe_load(resolve_cell_path("sim").read_text()).get("sensor") or {}
     models = {f: SensorModel(f, **{**sensor_cfg, "noise_px": 0.0, "pipeline_errors": False}) for f in FINGERS}
     ticks: dict[str, list[Tick]] = {f: [] for f in FINGERS}
     orders: dict[str, np.ndarray] = {}
-    cell_sense, world = cell.sense, cell.world
+    pixel_sense, world = cell.sense, cell.world
 
     def sense() -> dict[str, TactileState]:
         contacts = world.contacts()  # what the frames about to be rendered show
-        states = cell_sense()
+        states = pixel_sense()
         for f in FINGERS:
             truth = models[f].state(contacts[f], 0.0).markers
             if f not in orders:
@@ -103,4 +101,4 @@ def record(tree: Path, seed: int = 0, max_time: float = 120.0, perception: str =
         result = runner.run()
     finally:
         cell.close()
-    return Recording(tree.name, result.status, ticks, 1.0 / doc.tick_hz, perception)
+    return Recording(tree.name, result.status, ticks, 1.0 / doc.tick_hz)

@@ -2,32 +2,21 @@
 mode applies to the contact model's exact values, so a skill tuned in signals mode meets the
 errors it will meet in pixel mode and on a real sensor.
 
-Measured in pixel mode against the scene's truth by `fvtree bench errors`
-(`assembly/bench/perception/errors.py`: hold, in_hand_rot, object_track, the first assembly
-element and classify_substance (the stir scene), both fingers, 9044 ticks; the defaults below
-are its fitted model, `pipeline_errors.json` in its output). The bench runs the same trees in
-signals mode and measures them alike, so its table shows whether this model reproduces what it
-was fitted to (rows of mode `signals`, beside those of mode `pixels`). Re-run it after a change
-to `perception/` or the renderer and copy the new figures here. The model:
-- markers: first-order lag `lag_alpha` (the Kalman filter; measured 0.95, not applied), noise
-  `noise_px` that persists from frame to frame (an AR(1) series with lag-1 correlation
-  `noise_corr`: the filter smooths it); the losses are concentrated on a few markers (texture or
-  the object's edge over them): a share `lossy_share` of them, fixed per sensor, is lost on a
-  share `lossy_rate` of ticks, in runs (a two-state Markov chain: one lost stays lost on the
-  next tick with probability `lossy_hold`); a lost marker is not valid and keeps its last
-  estimate, as in the filter;
+Measured in pixel mode against the scene's truth by `assembly/bench/perception/errors.py` (hold,
+in_hand_rot, object_track and the first assembly element, both fingers, 7354 ticks; the defaults
+below are its fitted model, `pipeline_errors.json` in its output). Re-run it after a change to
+`perception/` and copy the new figures here. The model:
+- markers: first-order lag `lag_alpha` (the Kalman filter), white noise `noise_px`; the losses
+  are concentrated on a few markers (texture or the object's edge over them): a share
+  `lossy_share` of them, fixed per sensor, is lost on a tick with probability `lossy_rate` (not
+  valid; it keeps its last estimate, as in the filter);
 - object: missed on a tick with probability `object_miss`; area scaled by `area_scale` (the
-  proximity mask sees less than the whole object; the share differs by sensor, 0.63-0.70, so
-  each sensor draws its own with relative spread `area_spread`) with noise `area_noise`;
-  centroid noise `centroid_px` (px, 2-D rms) and orientation noise `angle_rad`; these noises
-  persist with lag-1 correlation `object_corr`;
+  proximity mask sees less than the whole object) with noise `area_noise`; centroid noise
+  `centroid_px` (px, 2-D rms) and orientation noise `angle_rad`;
 - slip: MOG2 reports image motion over the object, not slip alone, so the reported slip is
   `slip_gain * area * min(motion, slip_saturation)` (motion: px/frame of the object's texture,
   edge, turn and of the markers over it; see `image_motion`), `slip_delay` ticks late, times
-  (1 + `slip_noise` * z) with z an AR(1) series of lag-1 correlation `slip_corr`, plus a floor
-  drawn as `slip_floor` * Exp(1).
-Errors drawn afresh every tick would add a tick-to-tick texture the pipeline does not show
-(twice its mean change of torque and force); StirLearn reads texture, so the persistence matters.
+  (1 + `slip_noise` * N(0, 1)), plus a floor drawn as `slip_floor` * Exp(1).
 """
 
 from __future__ import annotations
@@ -37,7 +26,6 @@ from collections import deque
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from scipy.signal import lfilter
 
 from perception.state import ObjectInfo
 
@@ -50,24 +38,19 @@ SLIP_PX_PER_UNIT = 4.0  # rendered object texture speed (px/frame) per unit of t
 class PipelineErrors:
     """Parameters of the error model (defaults: measured, see the module docstring)."""
 
-    noise_px: float = 0.034  # px
-    lag_alpha: float = 1.0  # measured 0.95: the gated Kalman filter restarts on a real move (no lag modelled)
-    lossy_share: float = 0.13  # share of markers the tracker often loses (texture or the object's edge on them)
-    lossy_rate: float = 0.39  # how often one of those is lost on a tick
-    lossy_hold: float = 0.87  # how often a lost one is still lost on the next tick (losses come in runs)
-    noise_corr: float = 0.993  # lag-1 correlation of the marker noise (the filter smooths it)
+    noise_px: float = 0.038  # px
+    lag_alpha: float = 1.0  # measured 0.975: the gated Kalman filter restarts on a real move (no lag modelled)
+    lossy_share: float = 0.105  # share of markers the tracker often loses (texture or the object's edge on them)
+    lossy_rate: float = 0.37  # how often one of those is lost on a tick
     object_miss: float = 0.0
     area_scale: float = 0.67
-    area_spread: float = 0.043  # relative std of area_scale between sensors (drawn once per sensor)
-    area_noise: float = 0.0042  # share of the image
-    centroid_px: float = 1.15
-    angle_rad: float = 0.017
-    object_corr: float = 0.73  # lag-1 correlation of the area, centroid and angle noise
-    slip_gain: float = 0.78  # slip per (area share * px/frame)
-    slip_saturation: float = 0.5  # px/frame
+    area_noise: float = 0.0043  # share of the image
+    centroid_px: float = 1.14
+    angle_rad: float = 0.016
+    slip_gain: float = 0.43  # slip per (area share * px/frame)
+    slip_saturation: float = 1.0  # px/frame
     slip_floor: float = 0.0016
-    slip_noise: float = 0.58  # relative
-    slip_corr: float = 0.78  # lag-1 correlation of the relative slip noise
+    slip_noise: float = 0.83  # relative
     slip_delay: int = 0  # ticks
 
     def as_dict(self) -> dict:
@@ -99,30 +82,6 @@ def image_motion(prev, contact, prev_markers: np.ndarray, markers: np.ndarray) -
     return motion
 
 
-def persistent(white: np.ndarray, corr: float, last: np.ndarray | None) -> np.ndarray:
-    """Unit-variance white noise, one row per tick, made an AR(1) series with lag-1 correlation
-    `corr` (x[t] = corr x[t-1] + sqrt(1 - corr^2) w[t]) that continues from the row `last` (the
-    previous block's last; None: starts at the first row of `white`)."""
-    if corr == 0.0:
-        return white
-    fresh = math.sqrt(1.0 - corr * corr)
-    start = corr * last if last is not None else (1.0 - fresh) * white[0]
-    return lfilter([fresh], [1.0, -corr], white, axis=0, zi=start[None])[0]
-
-
-def lost_runs(uniform: np.ndarray, rate: float, hold: float, last: np.ndarray) -> np.ndarray:
-    """Which markers are lost on each tick (rows), a two-state Markov chain per marker: one lost
-    stays lost with probability `hold`, one tracked is lost with the probability that keeps the
-    share lost at `rate`; it continues from the lost markers `last`."""
-    start = rate * (1.0 - hold) / max(1.0 - rate, 1e-9)
-    lost = last.tolist()
-    rows = []
-    for draws in uniform.tolist():  # a few markers: plain Python is faster than numpy per tick
-        lost = [u < (hold if was else start) for u, was in zip(draws, lost)]
-        rows.append(lost)
-    return np.array(rows, bool).reshape(uniform.shape)
-
-
 BLOCK = 256  # ticks of random numbers drawn at once: one generator call per block, not several a tick
 
 
@@ -137,7 +96,6 @@ class ErrorModel:
         self._contact = None
         self._slip: deque[float] = deque([0.0] * errors.slip_delay, maxlen=errors.slip_delay + 1)
         self._tick = BLOCK
-        self._last: tuple | None = None  # the last tick's persistent draws (marker noise, losses, object and slip noise)
 
     def apply(self, contact, position: np.ndarray, size: np.ndarray):
         """(positions, sizes, valid, object, slip) the pipeline would report for this contact and
@@ -153,9 +111,6 @@ class ErrorModel:
 
     def _start(self, position: np.ndarray, size: np.ndarray) -> None:
         self._lossy = np.flatnonzero(self._rng.random(len(position)) < self.e.lossy_share)  # fixed per sensor
-        self._area_scale = self.e.area_scale
-        if self.e.area_spread:  # how much of the object this sensor's proximity mask sees
-            self._area_scale *= 1.0 + self.e.area_spread * float(self._rng.standard_normal())
         self._position, self._size, self._all = position, size, np.ones(len(position), bool)
 
     def _draw(self, n: int) -> None:
@@ -164,17 +119,12 @@ class ErrorModel:
         e, k = self.e, len(self._lossy)
         normal = self._rng.standard_normal((BLOCK, 3 * n + 5))
         uniform = self._rng.random((BLOCK, k + 2))
-        last_noise, last_lost, last_slip, last_object = self._last or (None, np.zeros(k, bool), None, None)
-        unit = persistent(normal[:, :3 * n].reshape(BLOCK, n, 3), e.noise_corr, last_noise)
-        lossy = lost_runs(uniform[:, :k], e.lossy_rate, e.lossy_hold, last_lost)
-        z = normal[:, 3 * n:]
-        z = np.column_stack([persistent(z[:, :1], e.slip_corr, last_slip), persistent(z[:, 1:], e.object_corr, last_object)])
-        self._last = (unit[-1], lossy[-1], z[-1, :1], z[-1, 1:])
-        noise = e.noise_px * unit
+        noise = e.noise_px * normal[:, :3 * n].reshape(BLOCK, n, 3)
         self._noise_xy, self._noise_size = noise[:, :, :2], 0.5 * noise[:, :, 2]
         self._lost = np.zeros((BLOCK, n), bool)
-        self._lost[:, self._lossy] = lossy
+        self._lost[:, self._lossy] = uniform[:, :k] < e.lossy_rate
         self._tracked, self._any_lost = ~self._lost, self._lost.any(axis=1).tolist()
+        z = normal[:, 3 * n:]
         self._centroid = z[:, 2:4] * (e.centroid_px / math.sqrt(2.0) / IMAGE_SCALE)
         # per tick: slip noise, area noise, angle noise, slip floor (Exp(1)), miss draw
         self._scalars = np.column_stack([z[:, 0], e.area_noise * z[:, 1], e.angle_rad * z[:, 4],
@@ -212,6 +162,6 @@ class ErrorModel:
         slip = max(0.0, expected * (1.0 + e.slip_noise * slip_noise)) + floor
         if not obj.present or obj.area <= 0.0 or miss < e.object_miss:
             return ObjectInfo(), slip
-        seen = ObjectInfo(True, max(self._area_scale * obj.area + area_noise, 1e-4), obj.centroid + centroid_noise,
+        seen = ObjectInfo(True, max(e.area_scale * obj.area + area_noise, 1e-4), obj.centroid + centroid_noise,
                           obj.orientation + angle_noise, obj.cells, obj.motion_cells)
         return seen, slip
