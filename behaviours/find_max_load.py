@@ -21,6 +21,7 @@ cut off at what the grip carries: a peak sharper than a plate's (`min_top_width`
 
 from __future__ import annotations
 
+import statistics
 from collections import deque
 
 import numpy as np
@@ -140,7 +141,7 @@ class FindMaxLoad(ProgramSkill):
             last[0] = (left, right)
             recent.append(sum(slip_beyond_marker_flow(now, was, self.p.flow_gain, self.p.flow_saturation)
                               for now, was in zip((left, right), before)))
-            slipped[0] = len(recent) == recent.maxlen and float(np.median(recent)) > self.p.slip
+            slipped[0] = len(recent) == recent.maxlen and statistics.median(recent) > self.p.slip
             self.feedback_message = f"scan at {positions[-1]:.3f} m, load {loads[-1]:.2f}"
             if slipped[0]:
                 return f"the element slipped in the grip at {positions[-1]:.3f} m along the plate"

@@ -3,8 +3,11 @@ the leaky integrator x_t = a x_{t-1} - (1 - a) L, and close again at the target 
 
 variant torque: L = 1 (open) while the object still twists the fingers (|torque| > torque_eps);
   ends when the torque vanishes - light objects give too little torque and stop short.
-variant slip: L = 1 while the object does not slip, 0 while it slips, so the leak closes the
-  grip again and the object turns in small slips.
+variant slip: L = 1 while the object does not slip, 0 while it slips and for `slip_hold` ticks
+  after the last slip felt, so the leak closes the grip again and the object turns in small
+  slips. The hold matters with a real sensor: the pipeline's slip flickers while the object
+  turns (frames in which it reads under the threshold), and opening on each such frame lets a
+  light object drop.
 """
 
 from __future__ import annotations
@@ -33,6 +36,8 @@ class InHandRot(ProgramSkill):
         "slip": Param("float", "slip variant: slip (both fingers) that counts as turning; the pipeline's slip "
                       "also lights up as the object turns in the image, so a turn alone should stay under it",
                       0.1, min=0.0),
+        "slip_hold": Param("int", "slip variant: ticks after the last slip felt before the opening may grow again",
+                           3, min=1),
         "settle": Param("int", "torque variant: ticks of zero torque that end the rotation", 10, min=1),
         "max_time": time_limit(20.0),
         "force": Param("float", "gripper force when closing again", 40.0, "N", min=0.0),
@@ -43,11 +48,14 @@ class InHandRot(ProgramSkill):
     def program(self):
         gripper = self.cell.gripper
         angle = SteadyAngle()
-        theta0 = angle.update(object_angle(*self.tactile()))
-        if theta0 is None:
-            return self.fail("no object seen between the fingers to rotate")
+        for look in range(angle.ticks):  # the start angle as steady as the angles the turn is judged by
+            if look:
+                yield
+            theta0 = angle.update(object_angle(*self.tactile()))
+            if theta0 is None:
+                return self.fail("no object seen between the fingers to rotate")
         width0, start = self.gripper_width(), self.now()
-        drive, quiet, turned = LeakyIntegrator(self.p.alpha), 0, 0.0
+        drive, quiet, turned, since_slip = LeakyIntegrator(self.p.alpha), 0, 0.0, self.p.slip_hold
         while turned < self.p.target:
             left, right = self.tactile()
             theta = angle.update(object_angle(left, right))
@@ -64,7 +72,8 @@ class InHandRot(ProgramSkill):
                                      f"{self.p.target:.0f} deg: too light for torque sensing, use variant: slip")
                 drive_input = 1.0 if twisting else 0.0
             else:
-                drive_input = 0.0 if total_slip(left, right) > self.p.slip else 1.0
+                since_slip = 0 if total_slip(left, right) > self.p.slip else since_slip + 1
+                drive_input = 0.0 if since_slip < self.p.slip_hold else 1.0
             opened = drive.step(-drive_input)  # 0 closed .. 1 fully opened, with inertia
             gripper.move(width0 + opened * self.p.opening, speed=gripper.max_speed)
             if self.now() - start > self.p.max_time:
