@@ -5,6 +5,7 @@ on light objects where slip does not."""
 from __future__ import annotations
 
 import math
+from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
@@ -122,4 +123,4 @@ def test_slip_variant_holds_the_opening_through_a_flickering_slip():
     assert any(felt), "the bar never slipped"
     for tick in np.flatnonzero(felt):
         after = opened[tick:tick + 3]
-        assert all(b <= a for a, b in zip(after, after[1:])), (tick, after)  # no growth for 3 ticks
+        assert all(b <= a for a, b in pairwise(after)), (tick, after)  # no growth for 3 ticks
