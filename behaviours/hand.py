@@ -80,6 +80,14 @@ def object_area(left: TactileState, right: TactileState) -> float:
     return max(left.obj.area, right.obj.area)
 
 
+def still_seen(area: float, held_area: float, gone_share: float) -> bool:
+    """Whether an object seen with `held_area` while held is still between the fingers at `area`:
+    above `gone_share` of that area. Not `area > 0`: the proximity mask keeps a few pixels of the
+    background whose colours match the object's model after the object has left (about 1 % of
+    the image, where a held object covers 20-30 %)."""
+    return area > gone_share * held_area if held_area > 0.0 else area > 0.0
+
+
 def grip_squeeze(left: TactileState, right: TactileState) -> float:
     """The squeeze both pads feel along the closing axis (px): the common part of their normal
     loads, which the hand force (their difference) cancels."""

@@ -6,7 +6,7 @@ change on enough markers): the fingers close with inertia and open again if the 
 back; once the fingers stop on the object at the force limit it is grasped, and received when
 the person has let go (nothing slips for `settle` ticks).
 give: once the person tugs, L = -1 opens gently; done when the fingers are open and the object
-is gone. A tug is a change felt (force change on enough markers, or slip) while the force the
+is gone (its area under `gone_share` of the area seen while held). A tug is a change felt (force change on enough markers, or slip) while the force the
 object puts on the hand has turned away from straight down by more than `weight_angle`, or grows
 faster than `tug_rate`: a person pulling the object away. Weight added slowly (sand poured into a
 held box) pulls straight down and is not a tug: the skill keeps holding.
@@ -28,7 +28,7 @@ from behaviours import keys
 from behaviours.base import Param, ProgramSkill
 from behaviours.control import ForceChangeDetector, LeakyIntegrator
 from behaviours.geometry import rotation
-from behaviours.hand import hand_force, object_area, total_slip
+from behaviours.hand import hand_force, object_area, still_seen, total_slip
 from behaviours.registry import register
 from perception.wrench import marker_forces
 
@@ -52,6 +52,8 @@ class Handover(ProgramSkill):
                               "weight, not a tug", 45.0, "deg", min=0.0, max=90.0),
         "tug_rate": Param("float", "give: a force change growing faster than this is a tug whatever its "
                           "direction", 3.0, "px/s", min=0.0),
+        "gone_share": Param("float", "object area under this share of the area seen while held counts as gone "
+                            "(a few background pixels of the object's colours stay in view)", 0.25, min=0.0, max=1.0),
         "min_pull": Param("float", "give: least change of the hand force that counts as a pull", 0.1, "px", min=0.0),
     }
     READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.GRIPPER_WIDTH, keys.GRIPPER_OBJECT, keys.ROBOT_POSE)
@@ -101,11 +103,12 @@ class Handover(ProgramSkill):
 
     def give(self, detector: ForceChangeDetector, drive: LeakyIntegrator, start: float):
         gripper = self.cell.gripper
-        if object_area(*self.tactile()) <= 0.0:
+        held_area = object_area(*self.tactile())
+        if held_area <= 0.0:
             return self.fail("nothing in the gripper to give")
         f0, recent = self._pull(), deque(maxlen=self.RATE_TICKS + 1)
         while True:
-            if object_area(*self.tactile()) <= 0.0:
+            if not still_seen(object_area(*self.tactile()), held_area, self.p.gone_share):
                 return self.fail("the object slipped out while waiting for the person: grasp it firmer, "
                                  "or hold it with 'hold'")
             felt = self._pressed(detector) or total_slip(*self.tactile()) > self.p.slip
@@ -121,7 +124,8 @@ class Handover(ProgramSkill):
             yield
         hold_width = self.gripper_width()
         target = min(hold_width + self.p.opening, gripper.max_width)
-        while self.gripper_width() < target - 1e-4 or object_area(*self.tactile()) > 0.0:
+        while self.gripper_width() < target - 1e-4 or still_seen(object_area(*self.tactile()), held_area,
+                                                                 self.p.gone_share):
             opened = drive.step(-1.0)  # 0 -> 1 with inertia
             gripper.move(hold_width + opened * (target - hold_width), speed=gripper.max_speed)
             if self.now() - start > self.p.wait:

@@ -3,7 +3,8 @@ x_t = a x_{t-1} - (1 - a) L (L = -1), then judge the release by feel and sight: 
 pads feel must have dropped (below `stuck_share` of the squeeze before, and `max_squeeze`, which
 sits above what an empty sensor reads), else the object is stuck in the fingers; and the object must be
 where `expect` says: still between the open fingers where it rests on a support ("stays"), or
-gone from them ("leaves", handed over or dropped on purpose). An object expected to stay that
+gone from them ("leaves", handed over or dropped on purpose; gone: its area under `gone_share` of
+the area seen while held). An object expected to stay that
 leaves the view fell."""
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from py_trees.common import Status
 from behaviours import keys
 from behaviours.base import Param, ProgramSkill, time_limit
 from behaviours.control import leaky_open
-from behaviours.hand import grip_squeeze, object_area
+from behaviours.hand import grip_squeeze, object_area, still_seen
 from behaviours.registry import register
 
 
@@ -29,14 +30,16 @@ class Release(ProgramSkill):
                              "whatever it was before", 0.1, "px", min=0.0),
         "stuck_share": Param("float", "share of the squeeze felt before opening that, still felt after, means "
                              "the object is stuck", 0.5, min=0.0, max=1.0),
+        "gone_share": Param("float", "object area under this share of the area seen while held counts as gone "
+                            "(a few background pixels of the object's colours stay in view)", 0.25, min=0.0, max=1.0),
         "settle": Param("int", "ticks to wait after opening before judging", 5, min=0),
         "max_time": time_limit(10.0, "give up when the fingers have not opened within this time"),
     }
     READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.GRIPPER_WIDTH, keys.GRIPPER_FAULT)
 
     def program(self):
-        before = grip_squeeze(*self.tactile())
-        if object_area(*self.tactile()) <= 0.0 and before <= self.p.max_squeeze:
+        before, held_area = grip_squeeze(*self.tactile()), object_area(*self.tactile())
+        if held_area <= 0.0 and before <= self.p.max_squeeze:
             return self.fail("nothing between the fingers to release")
         target = min(self.gripper_width() + self.p.opening, self.cell.gripper.max_width)
         self.feedback_message = "releasing"
@@ -46,7 +49,7 @@ class Release(ProgramSkill):
         for _ in range(self.p.settle):
             yield
         left, right = self.tactile()
-        squeeze, seen = grip_squeeze(left, right), object_area(left, right) > 0.0
+        squeeze, seen = grip_squeeze(left, right), still_seen(object_area(left, right), held_area, self.p.gone_share)
         if squeeze > max(self.p.max_squeeze, self.p.stuck_share * before):
             return self.fail(f"opened to {self.gripper_width() * 1000:.1f} mm but the pads still feel a squeeze "
                              f"({squeeze:.2f} of {before:.2f} px): the object is stuck between the fingers")
