@@ -110,6 +110,13 @@ def time_limit(default: float, doc: str = "give up after this long") -> Param:
     return Param("float", doc, default, "s", min=0.1)
 
 
+def gone_share() -> Param:
+    """The `gone_share` param of skills that judge whether a held object left the fingers (see
+    `behaviours.hand.still_seen`)."""
+    return Param("float", "object area under this share of the area seen while held counts as gone "
+                 "(a few background pixels of the object's colours stay in view)", 0.25, min=0.0, max=1.0)
+
+
 class Skill(py_trees.behaviour.Behaviour):
     """A py_trees behaviour with declared parameters that acts on the cell.
 

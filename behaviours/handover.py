@@ -25,7 +25,7 @@ import numpy as np
 from py_trees.common import Status
 
 from behaviours import keys
-from behaviours.base import Param, ProgramSkill
+from behaviours.base import Param, ProgramSkill, gone_share
 from behaviours.control import ForceChangeDetector, LeakyIntegrator
 from behaviours.geometry import rotation
 from behaviours.hand import hand_force, object_area, still_seen, total_slip
@@ -52,8 +52,7 @@ class Handover(ProgramSkill):
                               "weight, not a tug", 45.0, "deg", min=0.0, max=90.0),
         "tug_rate": Param("float", "give: a force change growing faster than this is a tug whatever its "
                           "direction", 3.0, "px/s", min=0.0),
-        "gone_share": Param("float", "object area under this share of the area seen while held counts as gone "
-                            "(a few background pixels of the object's colours stay in view)", 0.25, min=0.0, max=1.0),
+        "gone_share": gone_share(),
         "min_pull": Param("float", "give: least change of the hand force that counts as a pull", 0.1, "px", min=0.0),
     }
     READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.GRIPPER_WIDTH, keys.GRIPPER_OBJECT, keys.ROBOT_POSE)

@@ -8,8 +8,8 @@ from __future__ import annotations
 from py_trees.common import Status
 
 from behaviours import keys
-from behaviours.base import Param, ProgramSkill
-from behaviours.hand import object_area, total_slip
+from behaviours.base import Param, ProgramSkill, gone_share
+from behaviours.hand import object_area, still_seen, total_slip
 from behaviours.registry import register
 
 
@@ -23,6 +23,7 @@ class Hold(ProgramSkill):
         "force": Param("float", "gripper force limit while tightening", 40.0, "N", min=0.0),
         "duration": Param("float", "hold this long, then succeed; 0 holds until halted", 5.0, "s", min=0.0),
         "min_width": Param("float", "width at which tightening gives up", 0.002, "m", min=0.0),
+        "gone_share": gone_share(),
         "limit_steps": Param("int", "tightening steps in a row that do not close the fingers (force limit) "
                              "before giving up on a slipping object", 10, min=1),
     }
@@ -36,11 +37,12 @@ class Hold(ProgramSkill):
     def program(self):
         gripper = self.cell.gripper
         start, steps, stuck, last_width = self.now(), 0, 0, None
-        if object_area(*self.tactile()) <= 0.0:
+        held_area = object_area(*self.tactile())
+        if held_area <= 0.0:
             return self.fail("nothing between the fingers to hold: grasp the object first")
         while self.p.duration == 0.0 or self.now() - start < self.p.duration:
             left, right = self.tactile()
-            if object_area(left, right) <= 0.0:
+            if not still_seen(object_area(left, right), held_area, self.p.gone_share):
                 return self.fail(f"the object left the grip after {steps} tightening steps: "
                                  "raise 'force', or lower 'slip' to react sooner")
             slip = total_slip(left, right)

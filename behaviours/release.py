@@ -12,7 +12,7 @@ from __future__ import annotations
 from py_trees.common import Status
 
 from behaviours import keys
-from behaviours.base import Param, ProgramSkill, time_limit
+from behaviours.base import Param, ProgramSkill, gone_share, time_limit
 from behaviours.control import leaky_open
 from behaviours.hand import grip_squeeze, object_area, still_seen
 from behaviours.registry import register
@@ -30,8 +30,7 @@ class Release(ProgramSkill):
                              "whatever it was before", 0.1, "px", min=0.0),
         "stuck_share": Param("float", "share of the squeeze felt before opening that, still felt after, means "
                              "the object is stuck", 0.5, min=0.0, max=1.0),
-        "gone_share": Param("float", "object area under this share of the area seen while held counts as gone "
-                            "(a few background pixels of the object's colours stay in view)", 0.25, min=0.0, max=1.0),
+        "gone_share": gone_share(),
         "settle": Param("int", "ticks to wait after opening before judging", 5, min=0),
         "max_time": time_limit(10.0, "give up when the fingers have not opened within this time"),
     }

@@ -36,6 +36,10 @@ def test_hold_fails_when_the_object_leaves_the_grip():
     h.script([(0, held()), (20, {f: touch(f) for f in ("left", "right")})])
     assert h.run_until_done(300).name == "FAILURE"
     assert "left the grip after 0 tightening steps" in h.feedback("s")
+    h = one_skill("{duration: 5.0}")  # a few background pixels of the object's colours stay in view
+    h.script([(0, held()), (20, {"left": touch("left", area=0.01), "right": touch("right")})])
+    assert h.run_until_done(300).name == "FAILURE"
+    assert "left the grip" in h.feedback("s")
 
 
 def test_hold_refuses_to_start_without_an_object():
