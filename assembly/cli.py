@@ -24,6 +24,7 @@ BENCHES = {
     "skills": "assembly.bench.skills",
     "recording": "assembly.bench.recording",
     "demos": "assembly.bench.demos",
+    "seeds": "assembly.bench.seeds",
 }
 
 

@@ -57,3 +57,12 @@ def test_bench_demos(tmp_path):
     assert set(force) == {"signals", "pixels"} and all(abs(f - 5.0) < 1.0 for f in force.values())
     assert "SUCCESS in signals mode: 1 of 1; in pixel mode: 1 of 1" in (tmp_path / "demos.md").read_text()
     assert (tmp_path / "demos.png").stat().st_size > 5_000
+
+
+def test_bench_seeds(tmp_path):
+    assert main(["bench", "seeds", "--quick", "--out", str(tmp_path)]) == 0
+    rows = read_csv(tmp_path / "seeds.csv")
+    assert [(r["mode"], r["seed"], r["verdict"]) for r in rows] == [("signals", "1", "SUCCESS"), ("pixels", "1", "SUCCESS")]
+    text = (tmp_path / "seeds.md").read_text()
+    assert "| press_with_force.yaml | 1/1 | 1/1 |" in text and "Every run succeeded." in text
+    assert (tmp_path / "seeds.png").stat().st_size > 5_000

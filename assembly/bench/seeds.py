@@ -1,0 +1,93 @@
+"""`fvtree bench seeds`: how often each demo tree does its task, over several seeds, in both
+perception modes. A skill tuned on one seed can pass by luck; this runs every demo tree as `fvtree
+run TREE --perception MODE --seed N` (seeds 0-9 in signals mode, 0-4 in the slower pixel mode)
+and counts the runs whose verdict, the tree's status checked against the scene's truth, is
+SUCCESS. Writes seeds.csv (tree, mode, seed, verdict, why), seeds.md and seeds.png.
+"""
+
+from __future__ import annotations
+
+import csv
+import tempfile
+from pathlib import Path
+
+from assembly.bench.demos import MODES, demo_trees, figures, run_demo
+
+SEEDS = {"signals": range(10), "pixels": range(5)}
+QUICK_SEEDS = (1,)  # --quick: one seed other than the demos bench's 0
+
+
+def run(out: Path, quick: bool = False) -> list[Path]:
+    """Run each demo tree over the seeds of each mode; write the table and the chart."""
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for tree in demo_trees(quick):
+            for mode in MODES:
+                for seed in QUICK_SEEDS if quick else SEEDS[mode]:
+                    result = figures(run_demo(tree, mode, Path(tmp) / f"{tree.stem}-{mode}-{seed}", seed))
+                    rows.append({"tree": tree.name, "mode": mode, "seed": seed, "verdict": result["verdict"],
+                                 "why": result.get("why", "")})
+    csv_path = out / "seeds.csv"
+    with open(csv_path, "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=["tree", "mode", "seed", "verdict", "why"])
+        writer.writeheader()
+        writer.writerows(rows)
+    md_path = out / "seeds.md"
+    md_path.write_text(markdown(rows))
+    return [csv_path, md_path, chart(rows, out / "seeds.png")]
+
+
+def tally(rows: list[dict]) -> dict[tuple[str, str], tuple[int, int]]:
+    """{(tree, mode): (runs that succeeded, runs)}."""
+    out: dict[tuple[str, str], tuple[int, int]] = {}
+    for r in rows:
+        ok, n = out.get((r["tree"], r["mode"]), (0, 0))
+        out[(r["tree"], r["mode"])] = (ok + (r["verdict"] == "SUCCESS"), n + 1)
+    return out
+
+
+def markdown(rows: list[dict]) -> str:
+    """Successes per tree and mode, then every run that did not succeed with why."""
+    counts = tally(rows)
+    trees = sorted({r["tree"] for r in rows})
+    lines = ["# Demo trees over several seeds", "",
+             ("Each tree run as `fvtree run TREE --perception MODE --seed N` on the simulated cell; a run counts "
+              "when its verdict (the tree's status checked against the scene's truth) is SUCCESS."), "",
+             "| tree | signals | pixels |", "|---|---|---|"]
+    for tree in trees:
+        cells = [("{}/{}".format(*counts[(tree, mode)]) if (tree, mode) in counts else "") for mode in MODES]
+        lines.append(f"| {tree} | {cells[0]} | {cells[1]} |")
+    failed = [r for r in rows if r["verdict"] != "SUCCESS"]
+    lines += ["", "Runs that did not succeed:" if failed else "Every run succeeded.", ""]
+    lines += [f"- {r['tree']}, {r['mode']} mode, seed {r['seed']}: {r['verdict']} {r['why']}".rstrip() for r in failed]
+    return "\n".join([*lines, ""])
+
+
+def chart(rows: list[dict], path: Path) -> Path:
+    """Share of successful runs per tree and mode, with the counts written on the bars."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    counts = tally(rows)
+    trees = sorted({r["tree"] for r in rows})
+    x = np.arange(len(trees))
+    fig, ax = plt.subplots(figsize=(max(6.0, 0.8 * len(trees) + 2), 4))
+    for i, (mode, colour) in enumerate(zip(MODES, ("#4682e6", "#e69a46"))):
+        ok_n = [counts.get((t, mode), (0, 0)) for t in trees]
+        share = [ok / n if n else 0.0 for ok, n in ok_n]
+        bars = ax.bar(x + (i - 0.5) * 0.4, share, 0.4, color=colour, label=f"{mode} mode")
+        for bar, (ok, n) in zip(bars, ok_n):
+            ax.annotate(f"{ok}/{n}", (bar.get_x() + bar.get_width() / 2, bar.get_height()), ha="center",
+                        va="bottom", fontsize=7)
+    ax.set_ylim(0, 1.15)
+    ax.set_xticks(x, [t.removesuffix(".yaml") for t in trees], rotation=30, ha="right")
+    ax.set_ylabel("runs that did the task")
+    ax.set_title("demo trees over several seeds (verdict against the scene's truth)")
+    ax.legend(loc="lower right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
