@@ -83,18 +83,22 @@ class LocalFit:
         m = np.einsum("nki,nkj->nij", self._x, self._x) + self._prior
         self._coef = np.linalg.solve(m, self._x.transpose(0, 2, 1))[:, 0, :] if k else np.zeros((n, 0))
 
-    def predict(self, displacement: np.ndarray, trusted: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """((N, 2) displacement each marker's trusted neighbours predict for it, (N,) their count)."""
-        nb = self.neighbours
-        w = trusted[nb]  # (N, k)
+    def predict(self, displacement: np.ndarray, trusted: np.ndarray,
+                rows: slice | np.ndarray = slice(None)) -> tuple[np.ndarray, np.ndarray]:
+        """((R, 2) displacement the trusted neighbours of the markers `rows` (default all) predict for
+        them, (R,) their count): a caller that needs a few markers' predictions fits only those (each
+        marker's fit is its own, so its values do not depend on which others are fitted)."""
+        nb = self.neighbours[rows]
+        w = trusted[nb]  # (R, k)
         count = w.sum(axis=1)
-        d = displacement[nb]  # (N, k, 2)
-        predicted = np.einsum("nk,nkd->nd", self._coef, d)
+        d = displacement[nb]  # (R, k, 2)
+        predicted = np.einsum("nk,nkd->nd", self._coef[rows], d)
         part = count < nb.shape[1]
         if part.any():  # some neighbours untrusted: fit those neighbourhoods with their weights
-            x, wp = self._x[part], w[part].astype(float)[:, :, None]
-            m = np.einsum("nki,nkj->nij", x * wp, x) + self._prior
-            predicted[part] = np.linalg.solve(m, np.einsum("nki,nkd->nid", x * wp, d[part]))[:, 0, :]
+            x = self._x[rows][part]
+            xw = x * w[part].astype(float)[:, :, None]
+            m = np.einsum("nki,nkj->nij", xw, x) + self._prior
+            predicted[part] = np.linalg.solve(m, np.einsum("nki,nkd->nid", xw, d[part]))[:, 0, :]
         return predicted, count
 
 
@@ -190,9 +194,11 @@ class MarkerTracker:
         lost = self.failures > 0
         if not lost.any():
             return
-        predicted, count = self._fit.predict(self.position - self.origin, ~lost)
-        known = lost & (count >= 2)
-        self.position[known] = self.origin[known] + predicted[known]
+        rows = np.flatnonzero(lost)
+        predicted, count = self._fit.predict(self.position - self.origin, ~lost, rows)
+        known = np.zeros_like(lost)
+        known[rows[count >= 2]] = True
+        self.position[known] = self.origin[known] + predicted[count >= 2]
         alone = lost & ~known & (self.failures > self.cfg.n_reset)
         self.position[alone] = self.origin[alone]
         grown = restarted & known
@@ -300,6 +306,7 @@ class WindowTracker(MarkerTracker):
         # in the window corners or next to the marker does not pull the centroid or count as area.
         dist = np.hypot(self._off[:, None], self._off[None, :])[None]
         self._disc = dist <= (radius + 1.0)[:, None, None]
+        self._disc_weight = self._disc.astype(np.float32)  # the disc as weights: no cast per frame
         # The ring checked for dark contamination, 2 px wide around the window centre (within 1 px of
         # the marker's), starts past the marker's rim, its major semi-axis included (markers near the
         # window rim are foreshortened to ellipses) and 1 px of centring slack.
@@ -311,7 +318,7 @@ class WindowTracker(MarkerTracker):
         """Centroid, diameter, contrast, dark-pixel count and the dark share of the ring just outside
         the marker in the window around each centre, for the markers `which`; centroid and size use
         only each marker's disc (1 px larger than the marker)."""
-        disc = self._disc[which]
+        disc, weight = self._disc[which], self._disc_weight[which]
         half, size = self._half, 2 * self._half + 1
         h, w = grey.shape
         if h < size or w < size:
@@ -327,15 +334,16 @@ class WindowTracker(MarkerTracker):
         bg = 0.5 * (ring[:, m - 1] + ring[:, m])  # robust to a bright or dark feature touching the window
         dark = p.min(axis=(1, 2))
         level = 0.5 * (bg + dark)[:, None, None]
-        below = np.maximum(level - p, 0) * disc  # depth below half-way
+        below = level - p  # depth below half-way, in the disc
+        np.maximum(below, 0, out=below)
+        below *= weight
         inside = below > 0
         count = inside.sum(axis=(1, 2))
         core = (p * inside).sum(axis=(1, 2)) / np.maximum(count, 1)
         cover = (bg[:, None, None] - p) / np.maximum(bg - core, 1.0)[:, None, None]
         covered = (cover > 0.15) & disc
         np.minimum(cover, 1.0, out=cover)
-        cover[~covered] = 0.0
-        area = cover.sum(axis=(1, 2))
+        area = np.where(covered, cover, 0.0).sum(axis=(1, 2))
         total = below.sum(axis=(1, 2)) + np.float32(1e-6)
         xy = np.empty((len(p), 2))
         xy[:, 0] = cx + (below.sum(axis=1) @ self._off) / total
@@ -394,11 +402,13 @@ class WindowTracker(MarkerTracker):
         if not len(motion) or motion.max() <= 1.0:  # nothing measured moved more than 1 px: still skin
             return xy, size, ok
         for _ in range(FOLLOW_ROUNDS):
-            predicted, count = self._fit.predict(xy - self.position, ok | seen)
-            wide = np.flatnonzero(again & (count >= 2) & (np.abs(predicted).max(axis=1) > 1.0))
+            rows = np.flatnonzero(again)
+            predicted, count = self._fit.predict(xy - self.position, ok | seen, rows)
+            pick = (count >= 2) & (np.abs(predicted).max(axis=1) > 1.0)
+            wide = rows[pick]
             if not len(wide):
                 break
-            expected = self.position[wide] + predicted[wide]
+            expected = self.position[wide] + predicted[pick]
             fxy, fsize, fok, fring = self._look(grey, expected, wide, self.size[wide], RECENTRE)
             fok &= self._gate(fxy, fsize, expected, self.size[wide])
             xy, size, seen = xy.copy(), size.copy(), seen.copy()
