@@ -38,9 +38,19 @@ class Mog2Motion:
         if step <= 1:
             return self._mog.apply(frame.bgr, learningRate=self.cfg.learning_rate)
         # Every step-th pixel (a step^2 share of the work): each keeps its own model, as at full size.
-        sparse = self._mog.apply(np.ascontiguousarray(frame.bgr[::step, ::step]), learningRate=self.cfg.learning_rate)
+        sparse = self._mog.apply(every_nth(frame.bgr, step), learningRate=self.cfg.learning_rate)
         h, w = frame.bgr.shape[:2]
         return cv2.resize(sparse, (w, h), interpolation=cv2.INTER_NEAREST)
+
+
+def every_nth(bgr: np.ndarray, step: int) -> np.ndarray:
+    """`bgr[::step, ::step]` as a contiguous image. Where `step` divides both sides, OpenCV's nearest
+    resize picks exactly those pixels (source x = step * x) at a fifth of the time numpy copies a
+    strided 3-channel view in (it moves the 3 bytes of each pixel one at a time)."""
+    h, w = bgr.shape[:2]
+    if h % step or w % step:
+        return np.ascontiguousarray(bgr[::step, ::step])
+    return cv2.resize(bgr, (w // step, h // step), interpolation=cv2.INTER_NEAREST)
 
 
 class FlowMotion:

@@ -1,5 +1,6 @@
 """The quick forms of proximity vision's per-frame parts give what the plain formulas give: 3x3 cell
-means, the H x S x V bin of each pixel, the object mask of the current model and its moments."""
+means, the H x S x V bin of each pixel, the object mask of the current model and its moments, and
+slip's sparse sample of the frame."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import pytest
 from perception.config import HealthConfig, ProximityConfig
 from perception.frames import ImageQuality
 from perception.proximity import ProximityVision, cell_means
+from perception.slip import every_nth
 
 RANGES = (180, 256, 256)
 
@@ -91,3 +93,12 @@ def test_image_quality_reports_the_saturated_share_of_the_frame_it_checked():
     assert quality.saturated == pytest.approx(0.25)
     assert quality.problem(np.full((240, 320), 120, np.uint8)) == ""
     assert quality.saturated == 0.0
+
+
+@pytest.mark.parametrize(("shape", "step"), [((120, 160), 2), ((120, 160), 4), ((121, 161), 2), ((120, 160), 3)])
+def test_every_nth_is_the_strided_slice(shape: tuple[int, int], step: int) -> None:
+    """Slip's sample of every step-th pixel is `bgr[::step, ::step]`, whether or not step divides the sides."""
+    bgr = np.random.default_rng(7).integers(0, 256, (*shape, 3), dtype=np.uint8)
+    sample = every_nth(bgr, step)
+    assert sample.flags.c_contiguous
+    np.testing.assert_array_equal(sample, bgr[::step, ::step])
