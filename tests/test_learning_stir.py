@@ -11,7 +11,8 @@ import pytest
 from assembly.cli import main
 from drivers.sim.scenes.stir import SUBSTANCES, session_batch
 from perception.learning.dataset import Recording
-from perception.learning.stir import PAPER_MODEL, split, train_stir, trials
+from perception.learning.features import columns
+from perception.learning.stir import PAPER_MODEL, split, train_stir, trial_features, trials
 
 TREES = Path(__file__).resolve().parents[1] / "trees"
 
@@ -34,6 +35,17 @@ def test_stirlearn_tells_the_substances_apart(stirred):
     assert report["models"][PAPER_MODEL]["f1"] >= 0.8  # 29 training trials of one session, with the pipeline's errors
     assert set(report["models"]) >= {PAPER_MODEL, "logistic_regression", "svm_rbf", "random_forest"}
     assert list(model.estimator.classes_) == ["flour", "peas", "sugar"]
+
+
+def test_trial_features_do_not_depend_on_the_sensors_share_of_the_area_or_tz_offset(stirred):
+    """Pixel mode sees 0.61-0.67 of the stick's area by sensor, and tz's offset follows which
+    markers are lost: a trial reads the same whatever they are."""
+    rows = stirred.features[stirred.segment == 3]
+    names = columns()
+    other = rows.copy()
+    other[:, [names.index(f"{f}.area") for f in ("left", "right")]] *= 0.9
+    other[:, [names.index(f"{f}.tz") for f in ("left", "right")]] += 0.05
+    assert np.allclose(trial_features(rows), trial_features(other))
 
 
 def test_the_paper_split_holds_out_48_of_120_trials_stratified():

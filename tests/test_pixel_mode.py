@@ -61,9 +61,7 @@ CHECKS: dict[str, Callable[[dict], None]] = {
     "object_track.yaml": _tracked_to_within(10.0),
     "press_with_force.yaml": _pressed_to(5.0, 1.0),
 }
-FAILING_TODAY = {
-    "classify_substance.yaml": "the stirred sugar is misread in pixel mode (its features differ from signals mode, and recording pixel-mode trials fails in the peas bowl, where the stick hides most markers)",
-}
+FAILING_TODAY: dict[str, str] = {}
 
 def _demo_trees() -> list:
     trees = sorted(p.name for p in TREES.glob("*.yaml") if not p.name.startswith("record_"))

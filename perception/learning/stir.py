@@ -1,7 +1,9 @@
 """StirLearn: which substance a stick was stirred in, from what the fingers felt during one
 stirring trial. A trial's feature vector summarises each per-tick signal - the marker
 deviation of every grid cell, force, torque, object centroid, orientation, area and slip of
-each finger - by its mean, its spread and its mean tick-to-tick change (texture).
+each finger - by its mean, its spread, its mean tick-to-tick change (texture) and the ratio of
+the two (roughness); what depends on the sensor rather than the trial (the object's seen area
+and place, tz's offset) is taken relative to the trial's start.
 
 The paper's classifier is an MLP with three hidden layers of ten logistic units; the obvious
 alternatives are trained and reported alongside. Trials of one recording are split 72/48 of 120 as
@@ -30,21 +32,30 @@ PAPER_MODEL = "mlp_3x10_logistic"
 TEST_TRIALS = 48
 
 
+FROM_START = (".orientation", ".cx", ".cy", ".tz")  # signals taken as their change since the trial's start
+SHARE_OF_START = (".area",)  # signals taken as a share of their value at the trial's start
+START_TICKS = 5  # the trial's start: the median of its first ticks, not one noisy tick
+
+
 def _signal_matrix(rows: np.ndarray) -> np.ndarray:
-    """(T, S) per-tick signals: marker deviation per cell, then the per-finger summaries, with
-    the orientation taken from the trial's start (the stick's angle in the fingers carries over
-    from earlier trials; only its change belongs to this one)."""
-    names = columns()
+    """(T, S) per-tick signals: marker deviation per cell, then the per-finger summaries. What
+    belongs to the sensor rather than to the trial is taken relative to the trial's start: the
+    stick's angle and place in the fingers carry over from earlier trials, the proximity mask sees
+    a share of the stick's area that depends on the sensor (0.61-0.67), and tz's offset depends
+    on which markers the sensor loses."""
     cells = GRID[0] * GRID[1]
-    per_finger = cells * len(MARKER_CHANNELS) + (len(names) // 2 - cells * len(MARKER_CHANNELS))
+    per_finger = cells * len(MARKER_CHANNELS) + (len(columns()) // 2 - cells * len(MARKER_CHANNELS))
     out = []
     for finger in range(2):
         base = finger * per_finger
         grid = rows[:, base:base + cells * len(MARKER_CHANNELS)].reshape(len(rows), cells, len(MARKER_CHANNELS))
         out += [np.hypot(grid[:, :, 0], grid[:, :, 1]), rows[:, base + cells * len(MARKER_CHANNELS):base + per_finger]]
     signals = np.hstack(out)
-    orientation = [i for i, name in enumerate(_summary_names()) if name.endswith(".orientation")]
-    signals[:, orientation] -= signals[0, orientation]
+    names, start = _summary_names(), np.median(signals[:START_TICKS], axis=0)
+    moved = [i for i, name in enumerate(names) if name.endswith(FROM_START)]
+    signals[:, moved] -= start[moved]
+    share = [i for i, name in enumerate(names) if name.endswith(SHARE_OF_START)]
+    signals[:, share] = signals[:, share] / np.maximum(start[share], 1e-6) - 1.0
     return signals
 
 
@@ -57,12 +68,16 @@ def _summary_names() -> list[str]:
 
 
 def trial_features(rows: np.ndarray) -> np.ndarray:
-    """The feature vector of one stirring trial from its per-tick feature rows (T, F)."""
+    """The feature vector of one stirring trial from its per-tick feature rows (T, F): each
+    signal's mean, spread, texture (mean tick-to-tick change) and roughness (texture over spread).
+    Roughness does not scale with the skin's stiffness, the dip's depth or the batch's drag, which
+    vary between sessions, and tells a fast grain (sugar) from a slow one (flour)."""
     rows = np.asarray(rows, float)
     if len(rows) < 3:
         raise ValueError(f"a stirring trial needs at least 3 ticks, got {len(rows)}")
     s = _signal_matrix(rows)
-    return np.concatenate([s.mean(axis=0), s.std(axis=0), np.abs(np.diff(s, axis=0)).mean(axis=0)])
+    spread, texture = s.std(axis=0), np.abs(np.diff(s, axis=0)).mean(axis=0)
+    return np.concatenate([s.mean(axis=0), spread, texture, texture / (spread + 1e-9)])
 
 
 def trials(rec: Recording) -> tuple[np.ndarray, np.ndarray]:

@@ -8,7 +8,8 @@ the substance, as a twist about the closing axis; past the grip's friction torqu
 turns in the fingers (slip, orientation).
 
 Trials overlap as real ones do. Each dip draws its own fill level and packing and its own grain
-(DIP_SPREAD). Each session (the run's seed) has its own batch of each substance (grain size and
+(DIP_SPREAD) from a stream of its own, so the n-th dip of a session meets the same fill however
+many ticks came before it (signals and pixel mode see the same bowls). Each session (the run's seed) has its own batch of each substance (grain size and
 humidity: viscous, granular, texture and texture time drawn log-normally, BATCH_SIGMA) and its own
 skin (the gel's shear and twist stiffness drift by SKIN_DRIFT when a skin is remounted or warms
 up), so a model trained in one session is tested fairly only on another. The spreads are chosen
@@ -91,6 +92,7 @@ class StirScene(PickedScene):
     def __post_init__(self):
         self._dt = 0.0  # s, length of the last tick (slip is motion per camera frame)
         self._rng = np.random.default_rng(self.seed)
+        self._dip_rng = np.random.default_rng([self.seed, 2])  # fills, apart from the per-tick noise
         self.substances, shear, twist = session_batch(self.seed)
         self.shear_stiffness *= shear
         self.twist_stiffness *= twist
@@ -127,7 +129,7 @@ class StirScene(PickedScene):
         bowl = self.bowl_under(tip)
         depth = max(0.0, self.surface_z - tip[2]) if bowl else 0.0
         if depth > 0.0 and self._depth == 0.0:  # a new dip: new packing and fill
-            self._factors = self._rng.uniform(1 - DIP_SPREAD, 1 + DIP_SPREAD, 2)
+            self._factors = self._dip_rng.uniform(1 - DIP_SPREAD, 1 + DIP_SPREAD, 2)
             self.stirred.append(bowl)
         self._depth = depth
         force = self._substance_force(self.substances[bowl], depth, velocity, dt) if depth else np.zeros(3)
