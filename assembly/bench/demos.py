@@ -107,30 +107,44 @@ def markdown(rows: list[dict]) -> str:
 
 def chart(rows: list[dict], path: Path) -> Path:
     """Real-time factor of each demo in both modes, bars hatched where the verdict is not SUCCESS."""
+    table = side_by_side(rows)
+    trees = sorted({r["tree"] for r in rows})
+    rtf = {mode: [float(table.get((t, "real-time factor"), {}).get(mode) or 0.0) for t in trees] for mode in MODES}
+    fig, ax, bars = mode_bars(trees, rtf)
+    for mode in MODES:
+        for bar, tree in zip(bars[mode], trees):
+            if table.get((tree, "verdict"), {}).get(mode) != "SUCCESS":
+                bar.set_hatch("xx")
+                bar.set_edgecolor("#d33")
+    ax.axhline(10, color="#888", ls="--", lw=0.8, label="10x")
+    ax.set_yscale("log")
+    ax.set_ylabel("real-time factor")
+    ax.set_title("demo trees: signals against pixel mode (hatched: not SUCCESS)")
+    ax.legend()
+    return save(fig, path)
+
+
+def mode_bars(trees: list[str], values: dict[str, list[float]]):
+    """A figure with a bar per perception mode for each tree, side by side: (figure, axes, {mode:
+    bars}); the caller labels it and saves it with `save`."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     import numpy as np
 
-    table = side_by_side(rows)
-    trees = sorted({r["tree"] for r in rows})
     x = np.arange(len(trees))
     fig, ax = plt.subplots(figsize=(max(6.0, 0.8 * len(trees) + 2), 4))
-    for i, (mode, colour) in enumerate(zip(MODES, ("#4682e6", "#e69a46"))):
-        rtf = [float(table.get((t, "real-time factor"), {}).get(mode) or 0.0) for t in trees]
-        ok = [table.get((t, "verdict"), {}).get(mode) == "SUCCESS" for t in trees]
-        bars = ax.bar(x + (i - 0.5) * 0.4, rtf, 0.4, color=colour, label=f"{mode} mode")
-        for bar, success in zip(bars, ok):
-            if not success:
-                bar.set_hatch("xx")
-                bar.set_edgecolor("#d33")
-    ax.axhline(10, color="#888", ls="--", lw=0.8, label="10x")
-    ax.set_yscale("log")
+    bars = {mode: ax.bar(x + (i - 0.5) * 0.4, values[mode], 0.4, color=colour, label=f"{mode} mode")
+            for i, (mode, colour) in enumerate(zip(MODES, ("#4682e6", "#e69a46")))}
     ax.set_xticks(x, [t.removesuffix(".yaml") for t in trees], rotation=30, ha="right")
-    ax.set_ylabel("real-time factor")
-    ax.set_title("demo trees: signals against pixel mode (hatched: not SUCCESS)")
-    ax.legend()
+    return fig, ax, bars
+
+
+def save(fig, path: Path) -> Path:
+    """Lay out, write and close a benchmark figure."""
+    import matplotlib.pyplot as plt
+
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -11,7 +11,7 @@ import csv
 import tempfile
 from pathlib import Path
 
-from assembly.bench.demos import MODES, demo_trees, figures, run_demo
+from assembly.bench.demos import MODES, demo_trees, figures, mode_bars, run_demo, save
 
 SEEDS = {"signals": range(10), "pixels": range(5)}
 QUICK_SEEDS = (1,)  # --quick: one seed other than the demos bench's 0
@@ -65,29 +65,16 @@ def markdown(rows: list[dict]) -> str:
 
 def chart(rows: list[dict], path: Path) -> Path:
     """Share of successful runs per tree and mode, with the counts written on the bars."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-
     counts = tally(rows)
     trees = sorted({r["tree"] for r in rows})
-    x = np.arange(len(trees))
-    fig, ax = plt.subplots(figsize=(max(6.0, 0.8 * len(trees) + 2), 4))
-    for i, (mode, colour) in enumerate(zip(MODES, ("#4682e6", "#e69a46"))):
-        ok_n = [counts.get((t, mode), (0, 0)) for t in trees]
-        share = [ok / n if n else 0.0 for ok, n in ok_n]
-        bars = ax.bar(x + (i - 0.5) * 0.4, share, 0.4, color=colour, label=f"{mode} mode")
-        for bar, (ok, n) in zip(bars, ok_n):
+    ok_n = {mode: [counts.get((t, mode), (0, 0)) for t in trees] for mode in MODES}
+    fig, ax, bars = mode_bars(trees, {mode: [ok / n if n else 0.0 for ok, n in ok_n[mode]] for mode in MODES})
+    for mode in MODES:
+        for bar, (ok, n) in zip(bars[mode], ok_n[mode]):
             ax.annotate(f"{ok}/{n}", (bar.get_x() + bar.get_width() / 2, bar.get_height()), ha="center",
                         va="bottom", fontsize=7)
     ax.set_ylim(0, 1.15)
-    ax.set_xticks(x, [t.removesuffix(".yaml") for t in trees], rotation=30, ha="right")
     ax.set_ylabel("runs that did the task")
     ax.set_title("demo trees over several seeds (verdict against the scene's truth)")
     ax.legend(loc="lower right")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save(fig, path)
