@@ -6,9 +6,10 @@ change on enough markers): the fingers close with inertia and open again if the 
 back; once the fingers stop on the object at the force limit it is grasped, and received when
 the person has let go (nothing slips for `settle` ticks).
 give: once the person tugs, L = -1 opens gently; done when the fingers are open and the object
-is gone (its area under `gone_share` of the area seen while held). A tug is a change felt (force change on enough markers, or slip) while the force the
-object puts on the hand has turned away from straight down by more than `weight_angle`, or grows
-faster than `tug_rate`: a person pulling the object away. Weight added slowly (sand poured into a
+is gone (its area under `gone_share` of the area seen while held). A tug is a change felt (force
+change on enough markers, or slip) while the force the object puts on the hand has turned away
+from straight down by more than `weight_angle`, or grows faster than `tug_rate`: a person pulling
+the object away. Weight added slowly (sand poured into a
 held box) pulls straight down and is not a tug: the skill keeps holding.
 Each wait on the person is bounded by `wait`: receive gives up when nothing is offered (or the
 fingers have not closed on the object) within `wait`, or the person does not let go within
@@ -123,8 +124,8 @@ class Handover(ProgramSkill):
             yield
         hold_width = self.gripper_width()
         target = min(hold_width + self.p.opening, gripper.max_width)
-        while self.gripper_width() < target - 1e-4 or still_seen(object_area(*self.tactile()), held_area,
-                                                                 self.p.gone_share):
+        while (self.gripper_width() < target - 1e-4
+               or still_seen(object_area(*self.tactile()), held_area, self.p.gone_share)):
             opened = drive.step(-1.0)  # 0 -> 1 with inertia
             gripper.move(hold_width + opened * (target - hold_width), speed=gripper.max_speed)
             if self.now() - start > self.p.wait:

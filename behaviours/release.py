@@ -4,8 +4,7 @@ pads feel must have dropped (below `stuck_share` of the squeeze before, and `max
 sits above what an empty sensor reads), else the object is stuck in the fingers; and the object must be
 where `expect` says: still between the open fingers where it rests on a support ("stays"), or
 gone from them ("leaves", handed over or dropped on purpose; gone: its area under `gone_share` of
-the area seen while held). An object expected to stay that
-leaves the view fell."""
+the area seen while held). An object expected to stay that leaves the view fell."""
 
 from __future__ import annotations
 
@@ -48,7 +47,8 @@ class Release(ProgramSkill):
         for _ in range(self.p.settle):
             yield
         left, right = self.tactile()
-        squeeze, seen = grip_squeeze(left, right), still_seen(object_area(left, right), held_area, self.p.gone_share)
+        squeeze = grip_squeeze(left, right)
+        seen = still_seen(object_area(left, right), held_area, self.p.gone_share)
         if squeeze > max(self.p.max_squeeze, self.p.stuck_share * before):
             return self.fail(f"opened to {self.gripper_width() * 1000:.1f} mm but the pads still feel a squeeze "
                              f"({squeeze:.2f} of {before:.2f} px): the object is stuck between the fingers")

@@ -196,9 +196,10 @@ class MarkerTracker:
             return
         rows = np.flatnonzero(lost)
         predicted, count = self._fit.predict(self.position - self.origin, ~lost, rows)
+        fitted = count >= 2
         known = np.zeros_like(lost)
-        known[rows[count >= 2]] = True
-        self.position[known] = self.origin[known] + predicted[count >= 2]
+        known[rows[fitted]] = True
+        self.position[known] = self.origin[known] + predicted[fitted]
         alone = lost & ~known & (self.failures > self.cfg.n_reset)
         self.position[alone] = self.origin[alone]
         grown = restarted & known

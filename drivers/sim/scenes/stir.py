@@ -9,12 +9,13 @@ turns in the fingers (slip, orientation).
 
 Trials overlap as real ones do. Each dip draws its own fill level and packing and its own grain
 (DIP_SPREAD) from a stream of its own, so the n-th dip of a session meets the same fill however
-many ticks came before it (signals and pixel mode see the same bowls). Each session (the run's seed) has its own batch of each substance (grain size and
-humidity: viscous, granular, texture and texture time drawn log-normally, BATCH_SIGMA) and its own
-skin (the gel's shear and twist stiffness drift by SKIN_DRIFT when a skin is remounted or warms
-up), so a model trained in one session is tested fairly only on another. The spreads are chosen
-so that held-out trials of one session score about as the paper's (f1 0.96-0.98) while another
-session costs every classifier 0.05-0.2 of f1, by different amounts (`fvtree bench skills`).
+many ticks came before it (signals and pixel mode see the same bowls). Each session (the run's
+seed) has its own batch of each substance (grain size and humidity: viscous, granular, texture
+and texture time drawn log-normally, BATCH_SIGMA) and its own skin (the gel's shear and twist
+stiffness drift by SKIN_DRIFT when a skin is remounted or warms up), so a model trained in one
+session is tested fairly only on another. The spreads are chosen so that held-out trials of one
+session score about as the paper's (f1 0.96-0.98) while another session costs every classifier
+0.05-0.2 of f1, by different amounts (`fvtree bench skills`).
 """
 
 from __future__ import annotations
