@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from perception.config import KalmanConfig
+from perception.tracking_kernels import kalman_step
 
 
 class MarkerKalman:
@@ -69,36 +70,17 @@ class MarkerKalman:
         self.p00[which], self.p01[which], self.p11[which], self.ps[which] = c, 0.0, c, c
 
     def update(self, z_pos: np.ndarray, z_size: np.ndarray, valid: np.ndarray):
-        """Filter one frame: (N, 2) positions and (N,) sizes, used where `valid`; returns (pos, size)."""
-        q, r, dt = self.cfg.process_noise, self.cfg.measurement_noise, self.dt
-        # Every step is computed on all markers and stored where `valid` (`where=`): the same
-        # arithmetic per marker as picking the valid ones out, in fewer (small-array) numpy calls.
-        v, v2 = valid, valid[:, None]
-        # Predict (measured markers move with their velocity; unmeasured ones hold still).
-        np.add(self.pos, dt * self.vel, out=self.pos, where=v2)
-        np.add(self.p00, 2.0 * dt * self.p01 + dt * dt * self.p11, out=self.p00, where=v)
-        np.add(self.p01, dt * self.p11, out=self.p01, where=v)
-        self.p00 += q
-        self.p11 += q
-        self.ps += q
-        # Correct.
-        s = self.p00 + r
-        nu = z_pos - self.pos
-        k0, k1 = self.p00 / s, self.p01 / s
-        np.add(self.pos, k0[:, None] * nu, out=self.pos, where=v2)
-        np.add(self.vel, k1[:, None] * nu, out=self.vel, where=v2)
-        np.subtract(self.p11, k1 * self.p01, out=self.p11, where=v)
-        np.multiply(1.0 - k0, self.p01, out=self.p01, where=v)
-        np.multiply(self.p00, 1.0 - k0, out=self.p00, where=v)
-        ks = self.ps / (self.ps + r)
-        np.add(self.size, ks * (z_size - self.size), out=self.size, where=v)
-        np.multiply(self.ps, 1.0 - ks, out=self.ps, where=v)
-        nu[~v] = 0.0  # no innovation without a measurement
-        jump = np.zeros(len(v), bool)
+        """Filter one frame: (N, 2) positions and (N,) sizes, used where `valid`; returns (pos, size).
+        The predict-correct step is compiled (`tracking_kernels.kalman_step`); then markers whose
+        innovation, or whose neighbourhood's, is too large for noise restart at their measurement."""
+        nu, s = kalman_step(self.pos, self.vel, self.size, self.p00, self.p01, self.p11, self.ps,
+                            np.asarray(z_pos, float), np.asarray(z_size, float), np.asarray(valid, bool),
+                            self.cfg.process_noise, self.cfg.measurement_noise, self.dt)
+        jump = np.zeros(len(valid), bool)
         if self.cfg.reinit_gate > 0:
-            jump = v & ((nu * nu).sum(axis=1) / s > self.cfg.reinit_gate)
+            jump = valid & ((nu * nu).sum(axis=1) / s > self.cfg.reinit_gate)
         if self.cfg.motion_gate > 0 and self._hood is not None:
-            jump |= self._moving(nu, v)
+            jump |= self._moving(nu, valid)
         if jump.any():
             self.restart(jump, z_pos, z_size)
         return self.pos.copy(), self.size.copy()

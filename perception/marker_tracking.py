@@ -25,11 +25,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.lib.stride_tricks import as_strided
 from scipy.optimize import linear_sum_assignment
 
 from perception.config import ThresholdConfig, TrackerConfig
 from perception.detect import Detector, marker_mask
+from perception.tracking_kernels import measure_windows, near_trusted, predict_local
 
 _INFEASIBLE = 1e9
 RECENTRE = 3  # window tracker: re-measures of a marker found off its window centre
@@ -75,31 +75,23 @@ class LocalFit:
 
     def __init__(self, origin: np.ndarray, neighbours: np.ndarray, ridge: float = 0.5):
         n, k = neighbours.shape
-        self.neighbours = neighbours
+        self.neighbours = np.ascontiguousarray(neighbours, np.int64)
+        self._rows = np.arange(n)
         rel = origin[neighbours] - origin[:, None, :]  # (N, k, 2)
         scale = max(float(np.median(np.linalg.norm(rel, axis=2))), 1e-6) if k else 1.0
         self._x = np.concatenate([np.ones((n, k, 1)), rel / scale], axis=2)  # (N, k, 3)
         self._prior = np.diag([1e-9, ridge, ridge])
         m = np.einsum("nki,nkj->nij", self._x, self._x) + self._prior
-        self._coef = np.linalg.solve(m, self._x.transpose(0, 2, 1))[:, 0, :] if k else np.zeros((n, 0))
+        self._coef = np.linalg.solve(m, self._x.transpose(0, 2, 1))[:, 0, :].copy() if k else np.zeros((n, 0))
 
     def predict(self, displacement: np.ndarray, trusted: np.ndarray,
                 rows: slice | np.ndarray = slice(None)) -> tuple[np.ndarray, np.ndarray]:
         """((R, 2) displacement the trusted neighbours of the markers `rows` (default all) predict for
         them, (R,) their count): a caller that needs a few markers' predictions fits only those (each
         marker's fit is its own, so its values do not depend on which others are fitted)."""
-        nb = self.neighbours[rows]
-        w = trusted[nb]  # (R, k)
-        count = w.sum(axis=1)
-        d = displacement[nb]  # (R, k, 2)
-        predicted = np.einsum("nk,nkd->nd", self._coef[rows], d)
-        part = count < nb.shape[1]
-        if part.any():  # some neighbours untrusted: fit those neighbourhoods with their weights
-            x = self._x[rows][part]
-            xw = x * w[part].astype(float)[:, :, None]
-            m = np.einsum("nki,nkj->nij", xw, x) + self._prior
-            predicted[part] = np.linalg.solve(m, np.einsum("nki,nkd->nid", xw, d[part]))[:, 0, :]
-        return predicted, count
+        rows = self._rows[rows] if isinstance(rows, slice) else np.asarray(rows, np.int64)
+        return predict_local(self._coef, self._x, self.neighbours, rows, np.ascontiguousarray(displacement, float),
+                             np.ascontiguousarray(trusted, bool), self._prior)
 
 
 def inconsistent(fit: LocalFit, displacement: np.ndarray, ok: np.ndarray, tolerance: float) -> np.ndarray:
@@ -302,12 +294,12 @@ class WindowTracker(MarkerTracker):
         radius = self.origin_size / 2.0  # markers differ in size (distance to the lens, foreshortening)
         self._half = int(cfg.window) if cfg.window > 0 else max(3, int(np.ceil(radius.max() + 3)))
         self._min_sep = 0.5 * min_spacing(self.origin)
-        self._off = np.arange(-self._half, self._half + 1, dtype=np.float32)
+        self._rows = np.arange(len(self.origin))
+        off = np.arange(-self._half, self._half + 1, dtype=np.float32)
         # Centroid and size use only a disc 1 px larger than each marker, so that darker background
         # in the window corners or next to the marker does not pull the centroid or count as area.
-        dist = np.hypot(self._off[:, None], self._off[None, :])[None]
+        dist = np.hypot(off[:, None], off[None, :])[None]
         self._disc = dist <= (radius + 1.0)[:, None, None]
-        self._disc_weight = self._disc.astype(np.float32)  # the disc as weights: no cast per frame
         # The ring checked for dark contamination, 2 px wide around the window centre (within 1 px of
         # the marker's), starts past the marker's rim, its major semi-axis included (markers near the
         # window rim are foreshortened to ellipses) and 1 px of centring slack.
@@ -317,40 +309,18 @@ class WindowTracker(MarkerTracker):
 
     def _window(self, grey: np.ndarray, centre: np.ndarray, which: slice | np.ndarray):
         """Centroid, diameter, contrast, dark-pixel count and the dark share of the ring just outside
-        the marker in the window around each centre, for the markers `which`; centroid and size use
-        only each marker's disc (1 px larger than the marker)."""
-        disc, weight = self._disc[which], self._disc_weight[which]
+        the marker in the window around each centre, for the markers `which` (compiled:
+        `tracking_kernels.measure_windows`). In each window the background is the median of its
+        border (robust to a bright or dark feature touching it) and the threshold half-way from it
+        to the darkest pixel; the centroid is weighted by the depth below that threshold and, like
+        the size (the covered share of each pixel between background and the marker's core), uses
+        only the marker's disc (1 px larger than the marker)."""
         half, size = self._half, 2 * self._half + 1
         h, w = grey.shape
         if h < size or w < size:
             raise ValueError(f"image {w}x{h} is smaller than one tracking window ({size} px)")
-        cx, cy = np.clip(np.rint(centre).astype(int), half, (w - 1 - half, h - 1 - half)).T
-        # Every window of the image as a view (sliding_window_view without its checks), then a copy of
-        # the markers' windows only, in float32.
-        views = as_strided(grey, (h - size + 1, w - size + 1, size, size), grey.strides * 2, writeable=False)
-        p = views[cy - half, cx - half].astype(np.float32)  # (N, P, P)
-        ring = np.concatenate([p[:, 0, :], p[:, -1, :], p[:, 1:-1, 0], p[:, 1:-1, -1]], axis=1)
-        m = ring.shape[1] // 2  # the border has an even number of pixels: median of the middle two
-        ring.sort(axis=1)  # (quicker than a partition on these short rows, and the same middle values)
-        bg = 0.5 * (ring[:, m - 1] + ring[:, m])  # robust to a bright or dark feature touching the window
-        dark = p.min(axis=(1, 2))
-        level = 0.5 * (bg + dark)[:, None, None]
-        below = level - p  # depth below half-way, in the disc
-        np.maximum(below, 0, out=below)
-        below *= weight
-        inside = below > 0
-        count = inside.sum(axis=(1, 2))
-        core = (p * inside).sum(axis=(1, 2)) / np.maximum(count, 1)
-        cover = (bg[:, None, None] - p) / np.maximum(bg - core, 1.0)[:, None, None]
-        covered = (cover > 0.15) & disc
-        np.minimum(cover, 1.0, out=cover)
-        area = np.where(covered, cover, 0.0).sum(axis=(1, 2))
-        total = below.sum(axis=(1, 2)) + np.float32(1e-6)
-        xy = np.empty((len(p), 2))
-        xy[:, 0] = cx + (below.sum(axis=1) @ self._off) / total
-        xy[:, 1] = cy + (below.sum(axis=2) @ self._off) / total
-        ring_dark = (self._ring[which] & (p < level)).sum(axis=(1, 2)) / self._ring_size[which]
-        return xy, 2.0 * np.sqrt(area / np.pi), bg - dark, count, ring_dark
+        rows = self._rows if isinstance(which, slice) else which
+        return measure_windows(grey, np.asarray(centre, float), rows, self._disc, self._ring, self._ring_size, half)
 
     def _measure(self, bgr, grey, pred_xy, pred_size):
         xy, size, ok, self.ring = self._look(grey, pred_xy, slice(None), pred_size, 1)
@@ -384,12 +354,7 @@ class WindowTracker(MarkerTracker):
         neither is trusted."""
         if not self._min_sep < np.inf or ok.sum() <= 1:
             return np.zeros(len(xy), bool)
-        trusted = np.flatnonzero(ok)
-        dx = xy[:, 0, None] - xy[trusted, 0]  # (N, trusted): only a trusted marker can clash with another
-        dy = xy[:, 1, None] - xy[trusted, 1]
-        near = np.sqrt(dx * dx + dy * dy) < self._min_sep
-        near[trusted, np.arange(len(trusted))] = False  # not with itself
-        return near.any(axis=1)
+        return near_trusted(np.asarray(xy, float), ok, self._min_sep)
 
     def _follow(self, grey, xy, size, seen, ok):
         """Markers that moved further in a frame than the window reaches or the jump gate allows
