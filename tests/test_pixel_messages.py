@@ -1,5 +1,6 @@
 """Pixel mode's worker messages (`drivers.sim.models.pixel_messages`): frames and states come back
-from their bytes equal field by field and bit for bit, and the marker map travels only when it is new."""
+from their bytes equal field by field and bit for bit, and the marker map travels only when it is new;
+a frame's JPEG comes back with its stamp."""
 
 from __future__ import annotations
 
@@ -8,7 +9,14 @@ import math
 
 import numpy as np
 
-from drivers.sim.models.pixel_messages import StateDecoder, StateEncoder, decode_frame, encode_frame
+from drivers.sim.models.pixel_messages import (
+    StateDecoder,
+    StateEncoder,
+    decode_frame,
+    decode_jpeg,
+    encode_frame,
+    encode_jpeg,
+)
 from perception.state import MarkerField, ObjectInfo, TactileState
 
 
@@ -62,3 +70,9 @@ def test_a_frame_comes_back_with_what_the_renderer_reads():
     assert got[2].centroid.tobytes() == obj.centroid.tobytes() and got[3:] == (1.5, 0.1)
     assert decode_frame(encode_frame(position, size, None, 0.0, 0.2))[2] is None
     assert decode_frame(encode_frame(position, size, ObjectInfo(), 0.0, 0.2))[2].present is False
+
+
+def test_a_jpeg_comes_back_with_its_stamp_and_none_without_one():
+    jpeg = bytes(range(256)) * 40
+    assert decode_jpeg(memoryview(encode_jpeg(jpeg, 1 / 3))) == (jpeg, 1 / 3)
+    assert decode_jpeg(encode_jpeg(None, 0.2)) is None

@@ -1,6 +1,7 @@
 """Pixel mode with a fingertip in a worker process (`drivers.sim.models.pixel_workers`): the same
-states bit for bit as in one process, the recording's camera frames still there, and a worker that
-dies or stops answering ends the run FAULT naming its camera, never a hang or an orphan."""
+states bit for bit as in one process, the recording's camera frames the same JPEGs (the worker
+encodes its own), and a worker that dies or stops answering ends the run FAULT naming its camera,
+never a hang or an orphan."""
 
 from __future__ import annotations
 
@@ -13,12 +14,14 @@ import sys
 import time
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 import yaml
 
 from assembly.blackboard import clear_blackboard
 from assembly.loader import build, load_tree
+from assembly.observe.recorder import JPEG_QUALITY
 from assembly.runner import Runner
 from assembly.supervisor import Supervision
 from drivers.camera_frames import frames_of
@@ -87,24 +90,32 @@ def test_workers_give_the_in_process_states_bit_for_bit(tmp_path):
     assert any(s["right"].obj.present for s in parallel) and parallel[-1]["right"].force[1] < -0.5
 
 
-def test_the_recording_reads_each_finger_frame_from_its_worker(tmp_path):
+def _jpegs_after(tmp_path: Path, workers: bool, ticks: int) -> list[dict[str, tuple[bytes, float]]]:
+    """The recording's JPEGs of each finger's frame after each of `ticks` ticks of the hold scene in
+    pixel mode, with or without `workers`."""
     doc = load_tree(HOLD)
-    cell = load_cell(_cell_file(tmp_path, True), doc.tick_hz, doc.scene, seed=3, perception="pixels")
+    cell = load_cell(_cell_file(tmp_path, workers), doc.tick_hz, doc.scene, seed=3, perception="pixels")
     try:
-        assert list(cell.sense.processes) == list(pixel_workers.WORKER_FINGERS)
-        for _ in range(3):
+        assert list(cell.sense.processes) == (list(pixel_workers.WORKER_FINGERS) if workers else [])
+        jpegs = []
+        for _ in range(ticks):
             cell.step()
             states = cell.sense()
-        frames = frames_of(cell.sense)
-        for finger, state in states.items():
-            image, stamp = frames.images[finger]
-            assert image.shape == (240, 320, 3) and image.dtype == np.uint8 and image.std() > 5
-            assert stamp == state.stamp == cell.clock.now()
-        block = frames._workers["right"]._shared.name  # the worker's image travels in shared memory
-        assert Path("/dev/shm", block).exists()
+            jpegs.append(frames_of(cell.sense).jpegs(JPEG_QUALITY))
+            assert {finger: stamp for finger, (_, stamp) in jpegs[-1].items()} == {
+                finger: state.stamp for finger, state in states.items()}  # the frames of this tick
+        return jpegs
     finally:
         cell.close()
-    assert not Path("/dev/shm", block).exists()  # removed with the cell
+
+
+def test_the_worker_encodes_its_finger_frame_as_the_main_process_would(tmp_path):
+    alone = _jpegs_after(tmp_path, False, 3)
+    parallel = _jpegs_after(tmp_path, True, 3)
+    assert parallel == alone  # the same JPEG bytes and stamps, at the recorder's quality
+    for jpeg, _ in parallel[-1].values():
+        image = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
+        assert image.shape == (240, 320, 3) and image.std() > 5  # a rendered skin, not a blank
 
 
 def test_a_killed_worker_ends_the_run_fault_naming_its_camera(tmp_path):
@@ -177,15 +188,31 @@ def test_a_worker_that_raises_gives_unhealthy_states_naming_the_cause():
         frame = (np.zeros((1, 2)), np.ones(1), None, 0.0)
         states = fingers.process({f: (*frame, 0.5) for f in ("left", "right")})
         assert states["right"].healthy and states["right"].stamp == 0.5
-        assert frames_of(fingers).images["right"][1] == 0.5  # the worker's image, asked for when read
-        fingers.frames.keep("left", np.zeros(1), 0.5)
+        assert [(f, stamp) for f, (_, stamp) in frames_of(fingers).jpegs(85).items()] == [("left", 0.5), ("right", 0.5)]
         states = fingers.process({"left": (*frame, 0.9), "right": (*frame, 1.0)})
         assert not states["right"].healthy and states["right"].stamp == 1.0
         assert "camera right" in states["right"].health_reason
         assert "raised ValueError: frame at 1 s has no markers" in states["right"].health_reason
         assert not fingers.processes["right"].is_alive()
         assert not fingers.process({"left": (*frame, 0.95), "right": (*frame, 1.1)})["right"].healthy
-        assert list(fingers.frames.images) == ["left"]  # none from a failed worker
+        assert list(fingers.frames.jpegs(85)) == ["left"]  # none from a failed worker
+    finally:
+        fingers.close()
+
+
+def test_a_worker_that_stops_answering_a_jpeg_request_is_not_waited_for(monkeypatch):
+    monkeypatch.setattr(pixel_workers, "REPLY_TIMEOUT", 1.0)
+    fingers = pixel_workers.FingerWorkers(_FailingFinger, {"left": "left", "right": "right"}, ("right",))
+    try:
+        frame = (np.zeros((1, 2)), np.ones(1), None, 0.0)
+        assert fingers.process({f: (*frame, 0.5) for f in ("left", "right")})["right"].healthy
+        os.kill(fingers.processes["right"].pid, signal.SIGSTOP)
+        started = time.monotonic()
+        assert list(fingers.frames.jpegs(85)) == ["left"]
+        assert time.monotonic() - started < 5.0
+        state = fingers.process({f: (*frame, 0.6) for f in ("left", "right")})["right"]
+        assert not state.healthy and "camera right" in state.health_reason
+        assert "did not answer in 1 s" in state.health_reason and not fingers.processes["right"].is_alive()
     finally:
         fingers.close()
 

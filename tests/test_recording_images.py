@@ -90,7 +90,8 @@ def test_a_real_cell_perception_source_offers_the_frames_it_processed():
     for _ in range(3):
         clock.advance()
         states = sense()
-    frames = frames_of(sense)
+    jpegs = frames_of(sense).jpegs(85)
     for finger, camera in cameras.items():
-        image, stamp = frames.images[finger]
-        assert image is camera.sent[-1] and stamp == states[finger].stamp == clock.now()
+        jpeg, stamp = jpegs[finger]
+        assert jpeg == cv2.imencode(".jpg", camera.sent[-1], [cv2.IMWRITE_JPEG_QUALITY, 85])[1].tobytes()
+        assert stamp == states[finger].stamp == clock.now()

@@ -24,7 +24,6 @@ from operator import attrgetter
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 import py_trees
 import rerun as rr
@@ -177,13 +176,11 @@ class RunRecorder:
         self._origins[finger] = markers.origin
 
     def _images(self, tick: int, now: float) -> None:
-        """Each finger's newest camera frame as a JPEG under its marker arrows (same pixel axes)."""
+        """Each finger's newest camera frame as a JPEG under its marker arrows (same pixel axes), encoded
+        by the perception source (pixel mode's workers encode their fingers' frames themselves)."""
         self._next_image = now + self._image_period
-        for finger, (image, _) in list(self._frames.images.items()):
-            ok, jpeg = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY])
-            if ok:
-                self._at(tick, now, f"fv/{finger}/markers/image",
-                         rr.EncodedImage(contents=jpeg.tobytes(), media_type="image/jpeg"))
+        for finger, (jpeg, _) in self._frames.jpegs(JPEG_QUALITY).items():
+            self._at(tick, now, f"fv/{finger}/markers/image", rr.EncodedImage(contents=jpeg, media_type="image/jpeg"))
 
     def _tree(self, tick: int, now: float) -> None:
         """Status changes (with the feedback) and new feedback of running nodes; only the nodes whose

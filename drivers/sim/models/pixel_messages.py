@@ -1,6 +1,7 @@
 """Pixel mode's messages between the main process and a fingertip worker, as flat bytes instead of
 pickles: a frame's inputs and a `TactileState` each travel as one float64 buffer (a pickle of the
-state's eleven arrays costs ~100 us a tick to write and read; this a tenth of it), exact to the bit.
+state's eleven arrays costs ~100 us a tick to write and read; this a tenth of it), exact to the bit;
+the JPEG of a worker's newest frame travels as its stamp and its bytes.
 
 The marker map's origin and sizes change only when the map grows, so a state carries them only
 then; the receiving end reuses its copy, which keeps one origin array for every state of a map as
@@ -36,6 +37,17 @@ def decode_frame(data: bytes | memoryview) -> tuple[np.ndarray, np.ndarray, Obje
     obj = ObjectInfo(bool(present), area, values[6:8].copy(), orientation) if given else None
     position = values[_FRAME_HEAD:_FRAME_HEAD + 2 * n].reshape(n, 2).copy()
     return position, values[_FRAME_HEAD + 2 * n:].copy(), obj, shift, stamp
+
+
+def encode_jpeg(jpeg: bytes | None, stamp: float) -> bytes:
+    """A frame's JPEG (None: no frame yet, or it could not be encoded) and its stamp."""
+    return np.float64(stamp).tobytes() + (jpeg or b"")
+
+
+def decode_jpeg(data: bytes | memoryview) -> tuple[bytes, float] | None:
+    """(JPEG, stamp) of `encode_jpeg`'s bytes, or None when they carry no JPEG."""
+    jpeg = bytes(data[8:])
+    return (jpeg, float(np.frombuffer(data, float, 1)[0])) if jpeg else None
 
 
 class StateEncoder:

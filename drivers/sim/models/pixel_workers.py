@@ -7,30 +7,39 @@ double). A finger's frame costs ~2 ms; on two free cores a tick costs about one 
 A tick sends a worker only what its frame needs (marker positions and sizes, the object, its slip
 shift, the stamp) and gets back the TactileState: the same as the in-process path's, bit for bit.
 Both travel as flat bytes (`pixel_messages`: ~1 and ~2.4 kB, ~20 us a tick to write and read
-against ~120 us as pickles). The camera image comes back only when it is read (`frames`: the run's
-recording reads a few a second), through a shared memory block instead of the pipe. Workers
-start from a clean process (`forkserver`, else `spawn`: the main process may hold threads), ignore
-Ctrl-C (the main process halts the run and closes the cell, which stops them) and leave when the
-main process is gone. A worker that dies, raises or does not answer within
-`REPLY_TIMEOUT` gives unhealthy states naming its camera from then on, never a hang.
+against ~120 us as pickles). The camera image stays in the worker: when the run's recording takes
+the frames (a few times a second: `WorkerFrames.jpegs`), the main process asks the worker for the
+JPEG of its frame, encodes its own finger's meanwhile, then takes the worker's (~13 kB) from the
+pipe. The encoding (~0.2 ms a frame) so moves off the main process, which sets the pace, to the
+worker, which has idle time each tick.
+
+Workers start from a clean process (`forkserver`, else `spawn`: the main process may hold threads),
+ignore Ctrl-C (the main process halts the run and closes the cell, which stops them) and leave when
+the main process is gone. A worker that dies, raises or does not answer within `REPLY_TIMEOUT`
+gives unhealthy states naming its camera from then on, never a hang.
 """
 
 from __future__ import annotations
 
-import contextlib
 import multiprocessing
 import os
 import signal
 from collections.abc import Callable, Collection, Mapping
 from multiprocessing.connection import Connection
-from multiprocessing.shared_memory import SharedMemory
 from typing import Any, Protocol
 
 import numpy as np
 
-from drivers.camera_frames import LatestFrames
+from drivers.camera_frames import LatestFrames, jpeg_of
 from drivers.protocols import DriverFault
-from drivers.sim.models.pixel_messages import StateDecoder, StateEncoder, decode_frame, encode_frame
+from drivers.sim.models.pixel_messages import (
+    StateDecoder,
+    StateEncoder,
+    decode_frame,
+    decode_jpeg,
+    encode_frame,
+    encode_jpeg,
+)
 from perception.state import FINGERS, ObjectInfo, TactileState
 
 # Fingers processed in a worker when the fingers run in parallel; the others stay in the main process.
@@ -38,9 +47,9 @@ WORKER_FINGERS = ("right",)
 REPLY_TIMEOUT = 10.0  # s a tick waits for a worker's state: generous for a loaded machine
 START_TIMEOUT = 120.0  # s for a worker to start, import the pipeline and calibrate
 CLOSE_TIMEOUT = 5.0  # s a closing worker gets to leave before it is terminated
-# Each message starts with its kind: a frame to process, a request for the newest image, the end;
-# the worker answers ready, a state, an image or an error.
-FRAME, IMAGE, STOP, READY, STATE, ERROR = b"f", b"i", b"q", b"r", b"s", b"e"
+# Each message starts with its kind: a frame to process, a request for the JPEG of the newest frame
+# (its quality in one byte), the end; the worker answers ready, a state, a JPEG or an error.
+FRAME, JPEG, STOP, READY, STATE, ERROR = b"f", b"j", b"q", b"r", b"s", b"e"
 
 Frame = tuple  # (position (N, 2), size (N,), ObjectInfo | None, slip shift px, stamp s)
 
@@ -74,10 +83,10 @@ def _context() -> multiprocessing.context.BaseContext:
 
 
 def _serve(conn: Connection, build: Build, rig: Any) -> None:
-    """A worker's life: build and calibrate the finger, then answer frames and image requests until
+    """A worker's life: build and calibrate the finger, then answer frames and JPEG requests until
     told to stop or the main process is gone."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the main process's to handle
-    image, stamp, shared = None, 0.0, None
+    image, stamp = None, 0.0
     encoder = StateEncoder()
     try:
         finger = build(rig)
@@ -91,10 +100,9 @@ def _serve(conn: Connection, build: Build, rig: Any) -> None:
                 state, image = finger.process(*decode_frame(memoryview(message)[1:]))
                 stamp = state.stamp
                 conn.send_bytes(STATE + encoder.encode(state))
-            elif message[:1] == IMAGE:
-                shared = _share(image, shared)
-                conn.send_bytes(IMAGE + np.array([stamp, *(image.shape if image is not None else (0, 0, 0))]).tobytes()
-                                + (shared.name.encode() if shared is not None else b""))
+            elif message[:1] == JPEG:
+                jpeg = jpeg_of(image, message[1]) if image is not None else None
+                conn.send_bytes(JPEG + encode_jpeg(jpeg, stamp))
             else:
                 return
     except Exception as exc:  # noqa: BLE001 - any failure goes to the main process, which marks the finger unhealthy
@@ -102,23 +110,6 @@ def _serve(conn: Connection, build: Build, rig: Any) -> None:
             conn.send_bytes(ERROR + f"{type(exc).__name__}: {exc}".encode())
         except OSError:
             pass
-    finally:
-        if shared is not None:
-            shared.close()  # the main process removes it
-
-
-def _share(image: np.ndarray | None, shared: SharedMemory | None) -> SharedMemory | None:
-    """`image` copied into the worker's shared memory block (made when first needed, or again for a
-    larger image); the main process reads it from there (a pipe would carry 230 kB in pieces)."""
-    if image is None:
-        return shared
-    if shared is None or shared.size < image.nbytes:
-        if shared is not None:
-            shared.close()
-            shared.unlink()
-        shared = SharedMemory(create=True, size=image.nbytes)
-    np.ndarray(image.shape, np.uint8, shared.buf)[...] = image
-    return shared
 
 
 class FingerWorker:
@@ -133,7 +124,6 @@ class FingerWorker:
         child.close()
         self.failure = ""  # why the worker no longer answers ("" while it works)
         self._states = StateDecoder(finger)
-        self._shared: SharedMemory | None = None  # the worker's image block, once read
 
     def wait_ready(self, timeout: float) -> None:
         """Block until the worker has calibrated its finger, or raise DriverFault saying why not."""
@@ -146,11 +136,7 @@ class FingerWorker:
 
     def submit(self, frame: Frame) -> None:
         """Send a frame to process (nothing once the worker has failed)."""
-        if not self.failure:
-            try:
-                self._conn.send_bytes(FRAME + encode_frame(*frame))
-            except OSError as exc:
-                self._fail(f"could not be sent a frame ({exc})")
+        self._send(FRAME + encode_frame(*frame), "a frame")
 
     def state(self, stamp: float) -> TactileState:
         """The state of the frame submitted last, or an unhealthy state naming what went wrong."""
@@ -159,34 +145,27 @@ class FingerWorker:
             return self._states.decode(memoryview(reply)[1:])
         return TactileState(self.finger, stamp, healthy=False, health_reason=self.failure)
 
-    def image(self) -> tuple[np.ndarray, float] | None:
-        """The newest frame the worker processed and its stamp (None before the first or after a failure)."""
-        if self.failure:
-            return None
-        try:
-            self._conn.send_bytes(IMAGE)
-        except OSError as exc:
-            self._fail(f"could not be asked for its image ({exc})")
-            return None
-        reply = self._reply(REPLY_TIMEOUT)
-        if reply is None or reply[:1] != IMAGE:
-            return None
-        stamp, *shape = np.frombuffer(reply, float, 4, 1).tolist()
-        if not shape[0]:
-            return None
-        name = reply[33:].decode()
-        if self._shared is None or self._shared.name != name:
-            self._release()
-            self._shared = SharedMemory(name)
-        return np.ndarray([int(d) for d in shape], np.uint8, self._shared.buf).copy(), stamp
+    def ask_jpeg(self, quality: int) -> bool:
+        """Ask for the JPEG (at `quality`, 0-100) of the frame processed last, to collect with `jpeg`
+        (the worker encodes it meanwhile); False when it could not be asked (the worker has failed)."""
+        return self._send(JPEG + bytes([quality]), "a JPEG request")
 
-    def _release(self) -> None:
-        """Close and remove the shared memory block of the worker's images (the worker may be gone)."""
-        if self._shared is not None:
-            self._shared.close()
-            with contextlib.suppress(FileNotFoundError):
-                self._shared.unlink()
-            self._shared = None
+    def jpeg(self) -> tuple[bytes, float] | None:
+        """The answer to `ask_jpeg`: the JPEG and its stamp (None before the first frame or when the
+        worker fails)."""
+        reply = self._reply(REPLY_TIMEOUT)
+        return decode_jpeg(memoryview(reply)[1:]) if reply is not None and reply[:1] == JPEG else None
+
+    def _send(self, message: bytes, what: str) -> bool:
+        """Send `message` (`what` it is, for the failure); False once the worker has failed."""
+        if self.failure:
+            return False
+        try:
+            self._conn.send_bytes(message)
+        except OSError as exc:
+            self._fail(f"could not be sent {what} ({exc})")
+            return False
+        return True
 
     def _reply(self, timeout: float) -> bytes | None:
         """The worker's next message; None (and the worker failed) when it dies, raises or times out."""
@@ -225,24 +204,26 @@ class FingerWorker:
             self.process.kill()
             self.process.join(CLOSE_TIMEOUT)
         self._conn.close()
-        self._release()
 
 
 class WorkerFrames(LatestFrames):
-    """The newest frame of each finger: kept references for the fingers in the main process, copied
-    from the workers' shared memory when read (the recorder reads a few a second; a tick sends no image)."""
+    """The newest frame of each finger: kept (references) for the fingers processed in this process,
+    in their workers for the others (a tick sends no image)."""
 
     def __init__(self, workers: Mapping[str, FingerWorker]):
-        self._kept: dict[str, tuple[np.ndarray, float]] = {}  # LatestFrames' `images` is computed here
+        super().__init__()
         self._workers = workers
 
-    @property
-    def images(self) -> dict[str, tuple[np.ndarray, float]]:
-        fetched = {finger: worker.image() for finger, worker in self._workers.items()}
-        return {**self._kept, **{finger: got for finger, got in fetched.items() if got is not None}}
-
-    def keep(self, finger: str, image: np.ndarray, stamp: float) -> None:
-        self._kept[finger] = (image, stamp)
+    def jpegs(self, quality: int) -> dict[str, tuple[bytes, float]]:
+        """Finger -> (JPEG bytes, stamp) of each finger's newest frame, in FINGERS order: the workers
+        are asked first and encode theirs while this process encodes its own (none from a failed worker)."""
+        asked = [worker for worker in self._workers.values() if worker.ask_jpeg(quality)]
+        encoded = super().jpegs(quality)
+        for worker in asked:
+            got = worker.jpeg()
+            if got is not None:
+                encoded[worker.finger] = got
+        return {finger: encoded[finger] for finger in FINGERS if finger in encoded}
 
 
 class FingerWorkers:
