@@ -27,7 +27,7 @@ import numpy as np
 from drivers.clock import SimClock
 from drivers.protocols import World
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
-from drivers.sim.models.marker_patches import MarkerPainter, MarkerPatches
+from drivers.sim.models.marker_patches import MarkerPainter
 from drivers.sim.models.noise_bank import NoiseBank
 from drivers.sim.models.object_layer import ObjectLayer, ObjectPatch, Placement, object_info_from_mask
 from drivers.sim.models.pipeline_errors import SLIP_PX_PER_UNIT
@@ -122,7 +122,6 @@ class SyntheticFingerVision:
         self._clean_key: tuple | None = None
         self._drawn_position = np.full_like(self.origin, np.nan)  # the markers as last drawn
         self._drawn_size = np.full(len(self.origin), np.nan)
-        self._patches: MarkerPatches | None = None  # of the markers as last drawn
         self._diameters = np.zeros(len(self.origin))
         self._seen = np.ones(len(self.origin), bool)  # which drawn markers are visible
 
@@ -236,15 +235,14 @@ class SyntheticFingerVision:
         if not (np.abs(position - self._drawn_position).max(initial=0.0) <= TOLERANCE_PX
                 and np.abs(size - self._drawn_size).max(initial=0.0) <= TOLERANCE_PX):
             self._drawn_position, self._drawn_size = position.copy(), size.copy()
-            self._patches = self._painter.patches(position, size)
-            self._diameters = self._patches.diameter
+            self._diameters = self._painter.diameters(position, size)
             self._clean_key = None
         key = (self._shown, look.gain, look.gradient, look.glare, look.blur)
         if key == self._clean_key:
             return self._clean
         self._seen = self._visible(self._drawn_position, look)
         clean = self._under.copy()
-        self._painter.paint(clean, self._patches)
+        self._painter.paint(clean, self._drawn_position, self._drawn_size)
         if not look.plain:
             img = clean.astype(np.float32)
             if look.gain != 1.0 or look.gradient:
