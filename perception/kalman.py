@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from perception.config import KalmanConfig
-from perception.tracking_kernels import kalman_step
+from perception.tracking_kernels import kalman_step, moving_hoods
 
 
 class MarkerKalman:
@@ -31,7 +31,7 @@ class MarkerKalman:
         if dt <= 0:
             raise ValueError(f"Kalman time step must be positive, got {dt}")
         self.cfg, self.dt = cfg, float(dt)
-        self._neighbours(neighbours, len(size))
+        self._neighbours(neighbours)
         n = len(size)
         self.pos = np.asarray(position, float).copy()  # (N, 2)  x0, y0
         self.vel = np.zeros((n, 2))  # (N, 2)  xt, yt
@@ -41,12 +41,9 @@ class MarkerKalman:
         self.p11 = np.full(n, cfg.initial_cov)  # velocity variance
         self.ps = np.full(n, cfg.initial_cov)  # size variance
 
-    def _neighbours(self, neighbours: np.ndarray | None, n: int) -> None:
-        """The motion test's neighbourhoods (each marker and its neighbours) as a 0/1 matrix."""
-        self._hood = None
-        if neighbours is not None:
-            self._hood = np.eye(n)
-            self._hood[np.arange(n)[:, None], neighbours] = 1.0
+    def _neighbours(self, neighbours: np.ndarray | None) -> None:
+        """The motion test's neighbourhoods: each marker's neighbour indices (N, k), besides itself."""
+        self._hood = None if neighbours is None else np.ascontiguousarray(neighbours, np.int64)
 
     def add(self, position: np.ndarray, size: np.ndarray, neighbours: np.ndarray | None = None) -> None:
         """Append markers at rest at `position` (K, 2) with `size` (K,); `neighbours`: the new (N + K)
@@ -57,7 +54,7 @@ class MarkerKalman:
         self.size = np.concatenate([self.size, size])
         self.p00, self.p11, self.ps = (np.concatenate([p, np.full(k, c)]) for p in (self.p00, self.p11, self.ps))
         self.p01 = np.concatenate([self.p01, np.zeros(k)])
-        self._neighbours(neighbours, len(self.size))
+        self._neighbours(neighbours)
 
     def restart(self, which: np.ndarray, position: np.ndarray, size: np.ndarray) -> None:
         """Re-initialise the selected markers at the given position and size, at rest."""
@@ -91,13 +88,5 @@ class MarkerKalman:
         2 dof). sigma is measured on this frame: the spread of each marker's innovation about its
         neighbourhood's mean (robust median). A smooth motion of the skin shows in the mean long before
         one marker's innovation leaves its noise, so these markers follow their measurement at once.
-        `nu`: (N, 2) innovations, 0 where not `valid`."""
-        count = self._hood @ valid.astype(float)
-        mean = (self._hood @ nu) / np.maximum(count, 1.0)[:, None]
-        spread = ((nu - mean) ** 2).sum(axis=1)[valid]
-        if len(spread) < 3:
-            return np.zeros(len(valid), bool)
-        mid = len(spread) // 2  # the (upper) median; of chi2(2) it is 2 ln 2 sigma^2 per axis
-        sigma2 = max(float(np.partition(spread, mid)[mid]) / (2.0 * np.log(2.0)), 1e-6)
-        stat = count * (mean * mean).sum(axis=1) / sigma2
-        return valid & (count >= 3) & (stat > self.cfg.motion_gate)
+        `nu`: (N, 2) innovations, 0 where not `valid` (compiled: `tracking_kernels.moving_hoods`)."""
+        return moving_hoods(nu, np.asarray(valid, bool), self._hood, self.cfg.motion_gate)

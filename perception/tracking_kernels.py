@@ -209,3 +209,41 @@ def near_trusted(xy, ok, distance):  # pragma: no cover - compiled
                 if dx * dx + dy * dy < limit:
                     near[i] = True
     return near
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def moving_hoods(nu, valid, neighbours, gate):  # pragma: no cover - compiled
+    """(N,) markers whose neighbourhood (itself and its `neighbours`) moves: m |mean innovation|^2 /
+    sigma^2 above `gate` over its m >= 3 measured markers, sigma^2 from this frame's median spread of
+    the innovations about their neighbourhoods' means; see `MarkerKalman._moving`."""
+    n, k = neighbours.shape
+    count = np.zeros(n)
+    mean = np.zeros((n, 2))
+    for i in range(n):
+        if valid[i]:
+            count[i] += 1.0
+            mean[i, 0] += nu[i, 0]
+            mean[i, 1] += nu[i, 1]
+        for j in range(k):
+            q = neighbours[i, j]
+            if valid[q]:
+                count[i] += 1.0
+                mean[i, 0] += nu[q, 0]
+                mean[i, 1] += nu[q, 1]
+        mean[i, 0] /= max(count[i], 1.0)
+        mean[i, 1] /= max(count[i], 1.0)
+    spread = np.empty(n)
+    m = 0
+    for i in range(n):
+        if valid[i]:
+            spread[m] = (nu[i, 0] - mean[i, 0]) ** 2 + (nu[i, 1] - mean[i, 1]) ** 2
+            m += 1
+    moving = np.zeros(n, np.bool_)
+    if m < 3:
+        return moving
+    # The (upper) median; of chi2(2) it is 2 ln 2 sigma^2 per axis.
+    sigma2 = max(np.sort(spread[:m])[m // 2] / (2.0 * math.log(2.0)), 1e-6)
+    for i in range(n):
+        stat = count[i] * (mean[i, 0] ** 2 + mean[i, 1] ** 2) / sigma2
+        moving[i] = valid[i] and count[i] >= 3 and stat > gate
+    return moving
