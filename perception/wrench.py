@@ -10,9 +10,11 @@ unless a calibration gives scale factors. Only valid markers enter the average.
 
 from __future__ import annotations
 
+import math
 from typing import Literal
 
 import numpy as np
+from numba import njit
 
 from perception.state import MarkerField
 
@@ -137,9 +139,11 @@ def wrench(
     if count == 0:
         return np.zeros(3), np.zeros(3)
     terms = _terms(markers, finger)
+    if averaging == "mean" and mode == "xy_norm":
+        force, torque = _mean_wrench(markers.position, markers.origin, terms, valid, count)
+        return _scaled(force, force_scale), _scaled(torque, torque_scale)
     # [f, cross([p0, 0, p1], f)] per marker as seven products of [dx, dy, normal] with the cached
-    # factors, averaged in one pass: small-array numpy calls dominate the cost here, and this runs
-    # for every finger on every tick. Same arithmetic per marker as marker_forces/marker_levers.
+    # factors; the same arithmetic per marker as marker_forces/marker_levers.
     d = np.empty((len(valid), 3))
     np.subtract(markers.position, markers.origin, out=d[:, :2])
     _normal(markers, d[:, :2], mode, out=d[:, 2])
@@ -155,3 +159,25 @@ def wrench(
 def _scaled(values: np.ndarray, scale: np.ndarray | float) -> np.ndarray:
     """`values * scale`, skipping the (exact, but not free) product with the default scale 1."""
     return values if isinstance(scale, float) and scale == 1.0 else values * scale
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _mean_wrench(position, origin, terms, valid, count):  # pragma: no cover - compiled
+    """(force, torque): the mean over the valid markers of the seven products of [dx, normal, dy,
+    normal, dx, normal, dy] (normal = |(dx, dy)|) with `terms`, summed marker by marker in one pass
+    (the seventh added to the fifth: torque about the finger normal). It runs for every finger on
+    every tick, and numpy's small-array calls cost more than the sums."""
+    sums = np.zeros(6)
+    for i in range(len(valid)):
+        if not valid[i]:
+            continue
+        dx, dy = position[i, 0] - origin[i, 0], position[i, 1] - origin[i, 1]
+        normal = math.hypot(dx, dy)
+        sums[0] += dx * terms[i, 0]
+        sums[1] += normal * terms[i, 1]
+        sums[2] += dy * terms[i, 2]
+        sums[3] += normal * terms[i, 3]
+        sums[4] += dx * terms[i, 4] + dy * terms[i, 6]
+        sums[5] += normal * terms[i, 5]
+    sums /= count
+    return sums[:3], sums[3:]
