@@ -25,6 +25,8 @@ from perception.marker_tracking import make_tracker, neighbour_index
 from perception.proximity import ProximityVision
 from perception.slip import make_motion, object_slip
 from perception.state import FINGERS, MarkerField, ObjectInfo, TactileState
+from perception.tracking_kernels import warm_up as warm_tracking_kernels
+from perception.wrench import warm_up as warm_wrench_kernel
 from perception.wrench import wrench
 
 
@@ -46,6 +48,8 @@ class FingerVision:
         # A washed-out image is a warning, not a blank: markers stay dark and are judged one by one.
         self._quality = ImageQuality(dataclasses.replace(self.config.health, saturated_share=1.0))
         self._last: MarkerField | None = None
+        warm_tracking_kernels()  # the compiled loops loaded now, not on the first frame
+        warm_wrench_kernel()
 
     @property
     def calibrated(self) -> bool:

@@ -72,7 +72,7 @@ class MarkerKalman:
         innovation, or whose neighbourhood's, is too large for noise restart at their measurement."""
         nu, s = kalman_step(self.pos, self.vel, self.size, self.p00, self.p01, self.p11, self.ps,
                             np.asarray(z_pos, float), np.asarray(z_size, float), np.asarray(valid, bool),
-                            self.cfg.process_noise, self.cfg.measurement_noise, self.dt)
+                            float(self.cfg.process_noise), float(self.cfg.measurement_noise), self.dt)
         jump = np.zeros(len(valid), bool)
         if self.cfg.reinit_gate > 0:
             jump = valid & ((nu * nu).sum(axis=1) / s > self.cfg.reinit_gate)
@@ -89,4 +89,4 @@ class MarkerKalman:
         neighbourhood's mean (robust median). A smooth motion of the skin shows in the mean long before
         one marker's innovation leaves its noise, so these markers follow their measurement at once.
         `nu`: (N, 2) innovations, 0 where not `valid` (compiled: `tracking_kernels.moving_hoods`)."""
-        return moving_hoods(nu, np.asarray(valid, bool), self._hood, self.cfg.motion_gate)
+        return moving_hoods(nu, np.asarray(valid, bool), self._hood, float(self.cfg.motion_gate))

@@ -247,3 +247,18 @@ def moving_hoods(nu, valid, neighbours, gate):  # pragma: no cover - compiled
         stat = count[i] * (mean[i, 0] ** 2 + mean[i, 1] ** 2) / sigma2
         moving[i] = valid[i] and count[i] >= 3 and stat > gate
     return moving
+
+
+def warm_up() -> None:
+    """Load every kernel here now, for the argument types the tracker and the filter pass (compiled at
+    first use on a machine and cached; loading costs ~0.5 s in a fresh process): a pipeline calls this
+    when it is made, so that its first frame does not pay for it."""
+    one, pair, hood = np.zeros(1), np.zeros((1, 2)), np.zeros((1, 1), np.int64)
+    yes, rows = np.ones(1, np.bool_), np.zeros(1, np.int64)
+    window = np.ones((1, 3, 3), np.bool_)
+    measure_windows(np.zeros((3, 3), np.uint8), pair, rows, window, window, np.ones(1, np.int64), 1)
+    predict_local(np.zeros((1, 1)), np.zeros((1, 1, 3)), hood, rows, pair, yes, np.eye(3))
+    near_trusted(pair, yes, 1.0)
+    kalman_step(pair, pair.copy(), one, one.copy(), one.copy(), one.copy(), one.copy(), pair.copy(), one.copy(),
+                yes, 0.1, 0.1, 0.1)
+    moving_hoods(pair, yes, hood, 1.0)

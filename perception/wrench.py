@@ -91,7 +91,7 @@ def _valid(markers: MarkerField) -> np.ndarray:
         return np.ones(len(markers), bool)
     if len(markers.valid) != len(markers):
         raise ValueError(f"marker field has {len(markers)} markers but {len(markers.valid)} valid flags")
-    return np.asarray(markers.valid, bool)
+    return np.ascontiguousarray(markers.valid, bool)
 
 
 _TERMS = np.array([0, 2, 1, 2, 0, 2, 1])  # columns of [dx, dy, normal] in each term of `_terms`
@@ -140,7 +140,8 @@ def wrench(
         return np.zeros(3), np.zeros(3)
     terms = _terms(markers, finger)
     if averaging == "mean" and mode == "xy_norm":
-        force, torque = _mean_wrench(markers.position, markers.origin, terms, valid, count)
+        force, torque = _mean_wrench(np.ascontiguousarray(markers.position, float),
+                                     np.ascontiguousarray(markers.origin, float), terms, valid, count)
         return _scaled(force, force_scale), _scaled(torque, torque_scale)
     # [f, cross([p0, 0, p1], f)] per marker as seven products of [dx, dy, normal] with the cached
     # factors; the same arithmetic per marker as marker_forces/marker_levers.
@@ -154,6 +155,14 @@ def wrench(
     fw[:, 4] += fw[:, 6]
     mean = _average(fw[:, :6], averaging)
     return _scaled(mean[:3], force_scale), _scaled(mean[3:], torque_scale)
+
+
+def warm_up() -> None:
+    """Load the compiled wrench now (compiled at first use on a machine and cached; loading it costs
+    ~0.5 s in a fresh process): sensors call this when they are set up, so that their first tick does
+    not pay for it, on a real cell as in simulation."""
+    origin = np.zeros((1, 2))
+    wrench(MarkerField(origin, origin.copy(), np.ones(1), np.ones(1), np.ones(1, bool)), "left")
 
 
 def _scaled(values: np.ndarray, scale: np.ndarray | float) -> np.ndarray:

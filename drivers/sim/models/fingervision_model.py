@@ -17,7 +17,7 @@ import numpy as np
 
 from drivers.sim.models.pipeline_errors import ErrorModel, PipelineErrors
 from perception.state import MarkerField, ObjectInfo, TactileState
-from perception.wrench import wrench
+from perception.wrench import warm_up, wrench
 
 
 @dataclass
@@ -77,6 +77,7 @@ class SensorModel:
         self._noise_scale = np.array([1.0, 1.0, 0.5]) * self.noise_px
         self._patch_key = None
         self._errors: ErrorModel | None = None
+        warm_up()  # the compiled wrench loaded now, not on the first tick
 
     def _patch(self, centre) -> np.ndarray:
         """(5, 3N) displacement basis of a contact centre: how x, y and size of every marker move per
