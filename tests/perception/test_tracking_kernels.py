@@ -1,0 +1,65 @@
+"""The compiled loops of the tracker, the Kalman filter and the wrench: the same answers as plain
+linear algebra, and loaded when a sensor is set up (a first frame or tick never compiles)."""
+
+import numpy as np
+from conftest import Scene
+
+from drivers.sim.models.fingervision_model import FingerContact, SensorModel
+from perception import tracking_kernels, wrench
+from perception.marker_tracking import LocalFit, neighbour_index
+from perception.state import MarkerField
+from perception.wrench import marker_forces, marker_levers
+
+KERNELS = [tracking_kernels.measure_windows, tracking_kernels.predict_local, tracking_kernels.near_trusted,
+           tracking_kernels.kalman_step, tracking_kernels.moving_hoods, wrench._mean_wrench]
+
+
+def signatures() -> list[int]:
+    return [len(kernel.signatures) for kernel in KERNELS]
+
+
+def test_local_fit_with_untrusted_neighbours_is_the_weighted_least_squares_solution():
+    rng = np.random.default_rng(5)
+    origin = rng.uniform(0, 200, (30, 2))
+    fit = LocalFit(origin, neighbour_index(origin, 6), ridge=0.5)
+    displacement = rng.normal(0, 3, (30, 2))
+    trusted = rng.random(30) < 0.6
+    predicted, count = fit.predict(displacement, trusted)
+    for i, neighbours in enumerate(fit.neighbours):
+        use = trusted[neighbours]
+        assert count[i] == use.sum()
+        x = fit._x[i][use]  # rows [1, relative origin / spacing] of the trusted neighbours
+        normal = x.T @ x + np.diag([1e-9, 0.5, 0.5])
+        expected = np.linalg.solve(normal, x.T @ displacement[neighbours][use])[0]
+        assert np.allclose(predicted[i], expected, atol=1e-9)
+
+
+def test_mean_wrench_is_the_average_of_the_per_marker_forces_and_torques():
+    rng = np.random.default_rng(2)
+    origin = rng.uniform(20, 300, (25, 2))
+    markers = MarkerField(origin, origin + rng.normal(0, 2, origin.shape), np.full(25, 9.0), np.full(25, 9.0),
+                          rng.random(25) < 0.8)
+    for finger in ("left", "right"):
+        force, torque = wrench.wrench(markers, finger)
+        f = marker_forces(markers, finger)[markers.valid]
+        p = marker_levers(markers, finger)[markers.valid]
+        lever = np.column_stack([p[:, 0], np.zeros(len(p)), p[:, 1]])
+        assert np.allclose(force, f.mean(axis=0), atol=1e-12)
+        assert np.allclose(torque, np.cross(lever, f).mean(axis=0), atol=1e-12)
+
+
+def test_a_pipeline_made_has_loaded_every_kernel_its_frames_use():
+    scene = Scene(noise=2.0)
+    fv = scene.pipeline("fast")  # warms the kernels up when it is made
+    loaded = signatures()
+    for image, _ in scene.press(frames=12, peak=60.0):  # markers move: follow, refind and the motion gate run
+        fv.process(image, 0.0)
+    assert signatures() == loaded
+
+
+def test_a_signals_mode_sensor_made_has_loaded_its_wrench():
+    sensor = SensorModel("left", pipeline_errors=True)
+    loaded = signatures()
+    for load in (0.0, 5.0, 20.0):
+        sensor.state(FingerContact(normal=load, shear=np.array([0.2, 0.1]) * load), 0.0)
+    assert signatures() == loaded
