@@ -24,7 +24,8 @@ from perception.tracking_kernels import kalman_step, moving_hoods
 
 
 class MarkerKalman:
-    """Vectorised per-marker Kalman filter; `update` filters one frame of measurements."""
+    """Per-marker Kalman filter on all markers at once (its step compiled); `update` filters one frame
+    of measurements."""
 
     def __init__(self, cfg: KalmanConfig, dt: float, position: np.ndarray, size: np.ndarray,
                  neighbours: np.ndarray | None = None):

@@ -6,8 +6,8 @@ the size change, count failures and reset a marker to its origin after more than
           take the nearest blob (two markers may claim the same blob);
   assign  detect once on the whole frame, then a one-to-one assignment (Hungarian) of blobs to
           markers, so two markers never claim the same blob;
-  window  vectorised over all markers: a darkness-weighted centroid in a small window with a local
-          threshold (robust to lighting), measured again where a marker moved off the window
+  window  one compiled pass over all markers: a darkness-weighted centroid in a small window with
+          a local threshold (robust to lighting), measured again where a marker moved off the window
           centre; markers that converge on one blob, and markers touched by something dark (the
           ring around them darker than at calibration), are flagged. Markers that moved further in
           one frame than the window reaches or the jump gate allows (a load taken up at once: a
@@ -267,8 +267,8 @@ class AssignTracker(MarkerTracker):
 
 
 class WindowTracker(MarkerTracker):
-    """Vectorised local search: darkness-weighted centroid with a per-window threshold; markers that
-    moved off their window centre are measured again around the first estimate."""
+    """Local search per marker (compiled): darkness-weighted centroid with a per-window threshold;
+    markers that moved off their window centre are measured again around the first estimate."""
 
     def __init__(self, cfg: TrackerConfig, origin: np.ndarray, origin_size: np.ndarray,
                  ring_base: np.ndarray | None = None):
