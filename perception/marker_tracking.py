@@ -319,7 +319,7 @@ class WindowTracker(MarkerTracker):
         h, w = grey.shape
         if h < size or w < size:
             raise ValueError(f"image {w}x{h} is smaller than one tracking window ({size} px)")
-        rows = self._rows if isinstance(which, slice) else which
+        rows = self._rows if isinstance(which, slice) else np.asarray(which, np.int64)
         return measure_windows(grey, np.asarray(centre, float), rows, self._disc, self._ring, self._ring_size, half)
 
     def _measure(self, bgr, grey, pred_xy, pred_size):

@@ -28,8 +28,8 @@ class MarkerPainter:
     foreshortening: float  # radial squash of the markers at the window rim
 
     def squash(self, position: np.ndarray) -> np.ndarray:
-        """(N,) ratio of each marker's radius along the radial direction to its radius across, squared
-        root: 1 at the window centre, sqrt(1 - foreshortening) at the rim."""
+        """(N,) squash of each marker: its radius along the radial direction is its radius across times
+        squash^2 (1 at the window centre, 1 - foreshortening at the rim), its mean radius times squash."""
         rel = position - self.centre
         rho = np.hypot(rel[:, 0], rel[:, 1])
         return np.sqrt(1.0 - self.foreshortening * np.minimum(rho / self.window_radius, 1.0) ** 2)
