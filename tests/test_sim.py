@@ -105,13 +105,14 @@ def test_the_error_model_lags_markers_as_a_first_order_filter():
     from drivers.sim.models.pipeline_errors import ErrorModel, PipelineErrors
 
     model = ErrorModel(PipelineErrors(lag_alpha=0.4, noise_px=0.0, lossy_share=0.0), np.random.default_rng(0))
-    rest, moved = np.zeros((3, 2)), np.full((3, 2), 2.0)
-    model.apply(_held(), rest, np.full(3, 9.0))
-    first = model.apply(_held(), moved, np.full(3, 9.0))[0]
-    assert first == pytest.approx(0.4 * moved)
+    rest, moved = np.full((3, 3), 9.0), np.full((3, 3), 9.0)  # x, y, size per marker
+    rest[:, :2], moved[:, :2] = 0.0, 2.0
+    model.apply(_held(), rest)
+    first = model.apply(_held(), moved)[0]
+    assert first == pytest.approx(0.4 * moved[:, :2])
     for _ in range(20):
-        last = model.apply(_held(), moved, np.full(3, 9.0))[0]
-    assert last == pytest.approx(moved, abs=1e-3)
+        last = model.apply(_held(), moved)[0]
+    assert last == pytest.approx(moved[:, :2], abs=1e-3)
 
 
 def test_signals_mode_object_and_slip_carry_the_pipeline_errors():

@@ -1,9 +1,11 @@
-"""The compiled loops of the tracker, the Kalman filter and the wrench: the same answers as plain
-linear algebra, and loaded when a sensor is set up (a first frame or tick never compiles)."""
+"""The compiled loops of the tracker, the Kalman filter, the wrench and the signals-mode sensor: the
+same answers as plain linear algebra and numpy, and loaded when a sensor is set up (a first frame or
+tick never compiles)."""
 
 import numpy as np
 from conftest import Scene
 
+from drivers.sim.models import fingervision_model, pipeline_errors
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
 from perception import tracking_kernels, wrench
 from perception.marker_tracking import LocalFit, neighbour_index
@@ -11,7 +13,8 @@ from perception.state import MarkerField
 from perception.wrench import marker_forces, marker_levers
 
 KERNELS = [tracking_kernels.measure_windows, tracking_kernels.predict_local, tracking_kernels.near_trusted,
-           tracking_kernels.kalman_step, tracking_kernels.moving_hoods, wrench._mean_wrench]
+           tracking_kernels.kalman_step, tracking_kernels.moving_hoods, wrench._mean_wrench,
+           fingervision_model._field, pipeline_errors.observe, pipeline_errors._pairwise_sum]
 
 
 def signatures() -> list[int]:
@@ -57,9 +60,29 @@ def test_a_pipeline_made_has_loaded_every_kernel_its_frames_use():
     assert signatures() == loaded
 
 
-def test_a_signals_mode_sensor_made_has_loaded_its_wrench():
+def test_a_signals_mode_sensor_made_has_loaded_its_kernels():
     sensor = SensorModel("left", pipeline_errors=True)
     loaded = signatures()
     for load in (0.0, 5.0, 20.0):
         sensor.state(FingerContact(normal=load, shear=np.array([0.2, 0.1]) * load), 0.0)
     assert signatures() == loaded
+
+
+def test_the_compiled_sum_adds_in_numpys_order():
+    rng = np.random.default_rng(3)
+    for n in (1, 7, 8, 9, 70, 128, 129, 300, 1000, 5000):
+        values = rng.random(n) * rng.choice([1.0, 1e-3, 1e5], n)
+        assert pipeline_errors._pairwise_sum(values, 0, n) == np.add.reduce(values)
+
+
+def test_the_error_models_marker_step_is_the_numpy_one():
+    rng = np.random.default_rng(4)
+    exact, prev, estimate = rng.random((37, 3)), rng.random((37, 3)), rng.random((37, 3))
+    lost, noise = rng.random(37) < 0.2, rng.normal(0, 0.04, (37, 3))
+    for alpha in (1.0, 0.4):
+        step = estimate.copy()
+        position, size, moved = pipeline_errors.observe(exact, prev, step, lost, noise, alpha)
+        kept = np.where(lost[:, None], estimate, estimate + alpha * (exact - estimate) if alpha < 1.0 else exact)
+        assert np.array_equal(step, kept)
+        assert np.array_equal(position, kept[:, :2] + noise[:, :2]) and np.array_equal(size, kept[:, 2] + noise[:, 2])
+        assert moved == np.add.reduce(np.abs(exact[:, :2] - prev[:, :2]), axis=None) / 74

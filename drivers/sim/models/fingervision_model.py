@@ -14,7 +14,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 
+from drivers.sim.models import pipeline_errors
 from drivers.sim.models.pipeline_errors import ErrorModel, PipelineErrors
 from perception.state import MarkerField, ObjectInfo, TactileState
 from perception.wrench import warm_up, wrench
@@ -77,7 +79,9 @@ class SensorModel:
         self._noise_scale = np.array([1.0, 1.0, 0.5]) * self.noise_px
         self._patch_key = None
         self._errors: ErrorModel | None = None
-        warm_up()  # the compiled wrench loaded now, not on the first tick
+        warm_up()  # the compiled wrench, field and error model loaded now, not on the first tick
+        pipeline_errors.warm_up()
+        _field(self._rest, np.zeros((5, len(self._rest))), 0.0, 0.0, 0.0, 0.0, 0.0)
 
     def _patch(self, centre) -> np.ndarray:
         """(5, 3N) displacement basis of a contact centre: how x, y and size of every marker move per
@@ -99,7 +103,7 @@ class SensorModel:
         exact, position, size = self._exact(contact)
         obj, slip, valid = contact.obj, contact.slip, self._valid
         if self.pipeline_errors:
-            position, size, valid, obj, slip = self._error_model().apply(contact, position, size)
+            position, size, valid, obj, slip = self._error_model().apply(contact, exact)
         elif self.noise_px:
             noisy = exact + self._rng.standard_normal(exact.shape) * self._noise_scale
             position, size = noisy[:, :2], noisy[:, 2]
@@ -120,13 +124,20 @@ class SensorModel:
     def _loaded(self, contact: FingerContact) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The marker field of `contact`'s loads: the rest field moved by the contact centre's basis."""
         basis = self._patch(self._centre if contact.centre is None else contact.centre)
-        shear_x, shear_y = contact.shear
-        loads = np.array([self.shear_gain * shear_x, self.shear_gain * shear_y, self.normal_gain * contact.normal,
-                          self.torque_gain * contact.torque, self.size_gain * max(contact.normal, 0.0)])
-        exact = (self._rest + loads @ basis).reshape(-1, 3)
+        shear_x, shear_y = contact.shear.tolist()
+        exact = _field(self._rest, basis, self.shear_gain * shear_x, self.shear_gain * shear_y,
+                       self.normal_gain * contact.normal, self.torque_gain * contact.torque,
+                       self.size_gain * max(contact.normal, 0.0))
         return exact, exact[:, :2], exact[:, 2]
 
     def _error_model(self) -> ErrorModel:
         if self._errors is None:
             self._errors = ErrorModel(PipelineErrors(), self._rng)
         return self._errors
+
+
+@njit(cache=True, nogil=True)
+def _field(rest, basis, shear_x, shear_y, spread, turn, growth):  # pragma: no cover - compiled
+    """(N, 3) x, y, size of the markers: `rest` (3N,) moved by the loads through `basis` (5, 3N)."""
+    loads = np.array([shear_x, shear_y, spread, turn, growth])
+    return (rest + np.dot(loads, basis)).reshape(-1, 3)

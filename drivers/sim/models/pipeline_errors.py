@@ -26,6 +26,7 @@ from collections import deque
 from dataclasses import asdict, dataclass
 
 import numpy as np
+from numba import njit
 
 from perception.state import ObjectInfo
 
@@ -66,12 +67,16 @@ def image_motion(prev, contact, prev_markers: np.ndarray, markers: np.ndarray) -
     """px/frame the object shows moving between two FingerContacts: its texture sliding (slip),
     its centroid, its turn (at half its radius), its edge growing or shrinking, and the markers
     moving over it (mean; none when both ticks share one marker array, an unloaded fingertip)."""
-    obj, last = contact.obj, prev.obj
     if markers is prev_markers:
-        motion = SLIP_PX_PER_UNIT * contact.slip + 0.0  # + 0.0: the same sum as a zero mean motion
-    else:
-        moved = np.subtract(markers, prev_markers)
-        motion = SLIP_PX_PER_UNIT * contact.slip + float(np.add.reduce(np.abs(moved, out=moved), axis=None)) / moved.size
+        return object_motion(prev, contact, 0.0)
+    moved = np.subtract(markers, prev_markers)
+    return object_motion(prev, contact, float(np.add.reduce(np.abs(moved, out=moved), axis=None)) / moved.size)
+
+
+def object_motion(prev, contact, marker_motion: float) -> float:
+    """`image_motion` with the markers' mean motion (px/frame) given."""
+    obj, last = contact.obj, prev.obj
+    motion = SLIP_PX_PER_UNIT * contact.slip + marker_motion
     if obj.present and last.present:
         (dx, dy) = (obj.centroid - last.centroid).tolist()
         radius = object_radius(obj.area)
@@ -86,32 +91,37 @@ BLOCK = 256  # ticks of random numbers drawn at once: one generator call per blo
 
 
 class ErrorModel:
-    """The error model of one sensor, with its state (last markers, delayed slip, last view)."""
+    """The error model of one sensor, with its state (last estimates, last truth, delayed slip)."""
 
     def __init__(self, errors: PipelineErrors, rng: np.random.Generator):
         self.e, self._rng = errors, rng
-        self._position: np.ndarray | None = None
-        self._size: np.ndarray | None = None
+        self._estimate: np.ndarray | None = None  # (N, 3) x, y, size the tracker holds, noise-free
         self._truth: np.ndarray | None = None
         self._contact = None
         self._slip: deque[float] = deque([0.0] * errors.slip_delay, maxlen=errors.slip_delay + 1)
         self._tick = BLOCK
 
-    def apply(self, contact, position: np.ndarray, size: np.ndarray):
-        """(positions, sizes, valid, object, slip) the pipeline would report for this contact and
-        these exact marker positions and sizes."""
-        if self._position is None:
-            self._start(position, size)
+    def apply(self, contact, exact: np.ndarray):
+        """(positions, sizes, valid, object, slip) the pipeline would report for this contact and the
+        exact (N, 3) x, y and size of its markers (never changed here: an unloaded fingertip's is shared)."""
+        if self._estimate is None:
+            self._start(exact)
         if self._tick == BLOCK:
-            self._draw(len(position))
+            self._draw(len(exact))
         t = self._tick
         self._tick += 1
-        obj, slip = self._view(contact, position, self._scalars[t], self._centroid[t])
-        return (*self._markers(position, size, t), obj, slip)
+        first, same = self._truth is None, exact is self._truth
+        position, size, moved = observe(exact, self._truth if not (first or same) else exact, self._estimate,
+                                        self._lost[t], self._noise[t], self.e.lag_alpha)
+        valid = self._tracked[t] if self._any_lost[t] else self._all
+        obj, slip = self._view(contact, None if first else moved, self._scalars[t], self._centroid[t])
+        self._truth = exact
+        return position, size, valid, obj, slip
 
-    def _start(self, position: np.ndarray, size: np.ndarray) -> None:
-        self._lossy = np.flatnonzero(self._rng.random(len(position)) < self.e.lossy_share)  # fixed per sensor
-        self._position, self._size, self._all = position, size, np.ones(len(position), bool)
+    def _start(self, exact: np.ndarray) -> None:
+        n = len(exact)
+        self._lossy = np.flatnonzero(self._rng.random(n) < self.e.lossy_share)  # fixed per sensor
+        self._estimate, self._all = np.array(exact, float), np.ones(n, bool)
 
     def _draw(self, n: int) -> None:
         """The random numbers of the next BLOCK ticks, in one generator call per kind, scaled
@@ -119,8 +129,8 @@ class ErrorModel:
         e, k = self.e, len(self._lossy)
         normal = self._rng.standard_normal((BLOCK, 3 * n + 5))
         uniform = self._rng.random((BLOCK, k + 2))
-        noise = e.noise_px * normal[:, :3 * n].reshape(BLOCK, n, 3)
-        self._noise_xy, self._noise_size = noise[:, :, :2], 0.5 * noise[:, :, 2]
+        self._noise = e.noise_px * normal[:, :3 * n].reshape(BLOCK, n, 3)  # x, y, size (half as much)
+        self._noise[:, :, 2] *= 0.5
         self._lost = np.zeros((BLOCK, n), bool)
         self._lost[:, self._lossy] = uniform[:, :k] < e.lossy_rate
         self._tracked, self._any_lost = ~self._lost, self._lost.any(axis=1).tolist()
@@ -131,30 +141,14 @@ class ErrorModel:
                                          -e.slip_floor * np.log1p(-uniform[:, k]), uniform[:, k + 1]]).tolist()
         self._tick = 0
 
-    def _markers(self, position: np.ndarray, size: np.ndarray, t: int):
-        """Filtered, noisy marker positions and sizes, and which were tracked; lost markers keep
-        their last estimate."""
-        e = self.e
-        if e.lag_alpha < 1.0:
-            position = self._position + e.lag_alpha * (position - self._position)
-            size = self._size + e.lag_alpha * (size - self._size)
-        valid = self._all
-        if self._any_lost[t]:
-            lost = self._lost[t]
-            position = np.where(lost[:, None], self._position, position)
-            size = np.where(lost, self._size, size)
-            valid = self._tracked[t]
-        self._position, self._size = position, size
-        return position + self._noise_xy[t], size + self._noise_size[t], valid
-
-    def _view(self, contact, truth_markers: np.ndarray, scalars: list[float],
+    def _view(self, contact, marker_motion: float | None, scalars: list[float],
               centroid_noise: np.ndarray) -> tuple[ObjectInfo, float]:
-        """The object and the slip the pipeline would report (`scalars`: this tick's draws, see `_draw`)."""
+        """The object and the slip the pipeline would report (`marker_motion`: the markers' mean
+        motion since the last tick, None on the first; `scalars`: this tick's draws, see `_draw`)."""
         e = self.e
         slip_noise, area_noise, angle_noise, floor, miss = scalars
         last, self._contact = self._contact, contact
-        prev_markers, self._truth = self._truth, truth_markers
-        motion = 0.0 if last is None else image_motion(last, contact, prev_markers, truth_markers)
+        motion = 0.0 if marker_motion is None else object_motion(last, contact, marker_motion)
         obj = contact.obj
         area = obj.area if obj.present else 0.0
         self._slip.append(e.slip_gain * area * min(motion, e.slip_saturation))
@@ -165,3 +159,88 @@ class ErrorModel:
         seen = ObjectInfo(True, max(e.area_scale * obj.area + area_noise, 1e-4), obj.centroid + centroid_noise,
                           obj.orientation + angle_noise, obj.cells, obj.motion_cells)
         return seen, slip
+
+
+def warm_up() -> None:
+    """Load the compiled `observe` now (see `perception.wrench.warm_up`)."""
+    exact = np.zeros((1, 3))
+    observe(exact, exact, exact.copy(), np.zeros(1, bool), exact, 1.0)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def observe(exact, prev, estimate, lost, noise, alpha):  # pragma: no cover - compiled
+    """One tick of the marker errors, in one pass: the tracker's `estimate` (N, 3, updated in place)
+    follows `exact` with the first-order lag `alpha` except where `lost`; returns the reported
+    ((N, 2) positions, (N,) sizes) with `noise` (N, 3) added, and the mean |motion| of the exact
+    positions since `prev` (summed in numpy's pairwise order, as `image_motion` sums them)."""
+    n = len(exact)
+    position = np.empty((n, 2))
+    size = np.empty(n)
+    for i in range(n):
+        if not lost[i]:
+            for j in range(3):
+                estimate[i, j] = exact[i, j] if alpha >= 1.0 else estimate[i, j] + alpha * (exact[i, j] - estimate[i, j])
+        position[i, 0] = estimate[i, 0] + noise[i, 0]
+        position[i, 1] = estimate[i, 1] + noise[i, 1]
+        size[i] = estimate[i, 2] + noise[i, 2]
+    moved = np.empty(2 * n)
+    for i in range(n):
+        moved[2 * i] = abs(exact[i, 0] - prev[i, 0])
+        moved[2 * i + 1] = abs(exact[i, 1] - prev[i, 1])
+    return position, size, _pairwise_sum(moved, 0, 2 * n) / (2 * n)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _pairwise_sum(a, start, n):  # pragma: no cover - compiled
+    """Sum of a[start:start + n] in the order numpy's add.reduce uses, so that compiled and numpy
+    sums agree to the bit: blocks of up to 128 summed by `_block_sum`, longer runs split in halves
+    (a multiple of 8 on the left) and the halves' sums added; the halving runs on an explicit stack
+    (numba's cache does not hold recursive functions)."""
+    frames = np.empty((64, 3), np.int64)  # start, length, halves done; depth log2(n / 128)
+    sums = np.empty(64)
+    frames[0, 0], frames[0, 1], frames[0, 2] = start, n, 0
+    top, done = 1, 0
+    while top:
+        s, m, step = frames[top - 1]
+        if m <= 128:
+            sums[done] = _block_sum(a, s, m)
+            done += 1
+            top -= 1
+            continue
+        half = m // 2 - (m // 2) % 8
+        if step == 2:
+            sums[done - 2] += sums[done - 1]
+            done -= 1
+            top -= 1
+            continue
+        frames[top - 1, 2] = step + 1
+        frames[top, 0], frames[top, 1], frames[top, 2] = (s, half, 0) if step == 0 else (s + half, m - half, 0)
+        top += 1
+    return sums[0]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _block_sum(a, start, n):  # pragma: no cover - compiled
+    """numpy's sum of a block of at most 128: a plain loop below 8, else eight running sums."""
+    if n < 8:
+        total = 0.0
+        for i in range(start, start + n):
+            total += a[i]
+        return total
+    r0, r1, r2, r3, r4, r5, r6, r7 = a[start:start + 8]
+    i = start + 8
+    end = start + n - n % 8
+    while i < end:
+        r0 += a[i]
+        r1 += a[i + 1]
+        r2 += a[i + 2]
+        r3 += a[i + 3]
+        r4 += a[i + 4]
+        r5 += a[i + 5]
+        r6 += a[i + 6]
+        r7 += a[i + 7]
+        i += 8
+    total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    for k in range(i, start + n):
+        total += a[k]
+    return total
