@@ -135,14 +135,14 @@ def wrench(
     """Averaged (force, torque) over the valid markers, times the calibration scales (1 = pixels);
     zeros when no marker is valid."""
     valid = _valid(markers)
-    count = int(np.count_nonzero(valid))
-    if count == 0:
-        return np.zeros(3), np.zeros(3)
     terms = _terms(markers, finger)
     if averaging == "mean" and mode == "xy_norm":
         force, torque = _mean_wrench(np.ascontiguousarray(markers.position, float),
-                                     np.ascontiguousarray(markers.origin, float), terms, valid, count)
+                                     np.ascontiguousarray(markers.origin, float), terms, valid)
         return _scaled(force, force_scale), _scaled(torque, torque_scale)
+    count = int(np.count_nonzero(valid))
+    if count == 0:
+        return np.zeros(3), np.zeros(3)
     # [f, cross([p0, 0, p1], f)] per marker as seven products of [dx, dy, normal] with the cached
     # factors; the same arithmetic per marker as marker_forces/marker_levers.
     d = np.empty((len(valid), 3))
@@ -171,15 +171,17 @@ def _scaled(values: np.ndarray, scale: np.ndarray | float) -> np.ndarray:
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _mean_wrench(position, origin, terms, valid, count):  # pragma: no cover - compiled
+def _mean_wrench(position, origin, terms, valid):  # pragma: no cover - compiled
     """(force, torque): the mean over the valid markers of the seven products of [dx, normal, dy,
     normal, dx, normal, dy] (normal = |(dx, dy)|) with `terms`, summed marker by marker in one pass
-    (the seventh added to the fifth: torque about the finger normal). It runs for every finger on
-    every tick, and numpy's small-array calls cost more than the sums."""
+    (the seventh added to the fifth: torque about the finger normal); zeros when none is valid. It
+    runs for every finger on every tick, and numpy's small-array calls cost more than the sums."""
     sums = np.zeros(6)
+    count = 0
     for i in range(len(valid)):
         if not valid[i]:
             continue
+        count += 1
         dx, dy = position[i, 0] - origin[i, 0], position[i, 1] - origin[i, 1]
         normal = math.hypot(dx, dy)
         sums[0] += dx * terms[i, 0]
@@ -188,5 +190,6 @@ def _mean_wrench(position, origin, terms, valid, count):  # pragma: no cover - c
         sums[3] += normal * terms[i, 3]
         sums[4] += dx * terms[i, 4] + dy * terms[i, 6]
         sums[5] += normal * terms[i, 5]
-    sums /= count
+    if count:
+        sums /= count
     return sums[:3], sums[3:]

@@ -91,3 +91,10 @@ def test_valid_flags_of_the_wrong_length_are_an_error():
     m = MarkerField(np.zeros((3, 2)), np.zeros((3, 2)), np.ones(3), np.ones(3), np.ones(2, bool))
     with pytest.raises(ValueError, match="3 markers but 2 valid flags"):
         wrench(m, "left")
+
+
+@pytest.mark.parametrize("averaging", ["mean", "median"])
+def test_no_valid_marker_gives_a_zero_wrench(averaging):
+    m = MarkerField(np.zeros((3, 2)), np.ones((3, 2)), np.ones(3), np.ones(3), np.zeros(3, bool))
+    force, torque = wrench(m, "left", averaging=averaging)
+    assert force.tolist() == [0.0, 0.0, 0.0] and torque.tolist() == [0.0, 0.0, 0.0]

@@ -77,18 +77,19 @@ class SensorModel:
         self._rng = np.random.default_rng(self.seed)
         self._centre = np.array(self.image_size, float) / 2.0
         self._noise_scale = np.array([1.0, 1.0, 0.5]) * self.noise_px
-        self._patch_key = None
+        self._patch_key: tuple | None = ()  # the centre `_basis` was made for; () before the first
         self._errors: ErrorModel | None = None
         warm_up()  # the compiled wrench, field and error model loaded now, not on the first tick
         pipeline_errors.warm_up()
         _field(self._rest, np.zeros((5, len(self._rest))), 0.0, 0.0, 0.0, 0.0, 0.0)
 
-    def _patch(self, centre) -> np.ndarray:
-        """(5, 3N) displacement basis of a contact centre: how x, y and size of every marker move per
-        unit of shear x, shear y, normal spread, torque turn and size growth (one matrix product a tick)."""
-        key = (float(centre[0]), float(centre[1]))
+    def _patch(self, centre: np.ndarray | None) -> np.ndarray:
+        """(5, 3N) displacement basis of a contact centre (None: the image centre): how x, y and size of
+        every marker move per unit of shear x, shear y, normal spread, torque turn and size growth (one
+        matrix product a tick); kept for the last centre."""
+        key = None if centre is None else (float(centre[0]), float(centre[1]))
         if key != self._patch_key:
-            rel = (self.origin - centre) / self.patch_sigma
+            rel = (self.origin - (self._centre if centre is None else centre)) / self.patch_sigma
             weight = np.exp(-(rel**2).sum(axis=1) / 2.0)
             basis = np.zeros((5, len(weight), 3))
             basis[0, :, 0] = basis[1, :, 1] = basis[4, :, 2] = weight
@@ -116,14 +117,14 @@ class SensorModel:
         fingertip gets the shared rest field (the same values as `_loaded`, without the product) when
         noise or the pipeline errors make new arrays of it before it is handed out."""
         if contact.normal == 0.0 and contact.torque == 0.0 and (self.pipeline_errors or self.noise_px):
-            shear_x, shear_y = contact.shear
+            shear_x, shear_y = contact.shear.tolist()
             if shear_x == 0.0 and shear_y == 0.0:
                 return self._at_rest
         return self._loaded(contact)
 
     def _loaded(self, contact: FingerContact) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The marker field of `contact`'s loads: the rest field moved by the contact centre's basis."""
-        basis = self._patch(self._centre if contact.centre is None else contact.centre)
+        basis = self._patch(contact.centre)
         shear_x, shear_y = contact.shear.tolist()
         exact = _field(self._rest, basis, self.shear_gain * shear_x, self.shear_gain * shear_y,
                        self.normal_gain * contact.normal, self.torque_gain * contact.torque,
