@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 
-from drivers.guard import Guard, Refused, finite_number, positive_number
+from drivers.guard import Guard, Refused, finite_number, positive_number, truth_value
 from drivers.protocols import Gripper
 
 WIDTH_TOLERANCE = 1e-6  # m a width may pass the stroke's ends by (rounding)
@@ -38,10 +38,10 @@ class SafeGripper(Guard):
         return self._read("width", self.inner.width, math.nan, finite_number)
 
     def is_moving(self) -> bool:
-        return self._read("is_moving", self.inner.is_moving, False, lambda _, moving: bool(moving))
+        return self._read("is_moving", self.inner.is_moving, False, truth_value)
 
     def object_detected(self) -> bool:
-        return self._read("object_detected", self.inner.object_detected, False, lambda _, found: bool(found))
+        return self._read("object_detected", self.inner.object_detected, False, truth_value)
 
     # --- guarded command ---------------------------------------------------------------------
     def move(self, width: float, speed: float = 0.05, force: float = 20.0) -> None:

@@ -23,7 +23,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from drivers.guard import Guard, finite_number, finite_pose, finite_vector, positive_number
+from drivers.guard import Guard, finite_number, finite_pose, finite_vector, positive_number, truth_value
 from drivers.protocols import Arm, Clock
 
 log = logging.getLogger(__name__)
@@ -117,7 +117,7 @@ class SafeArm(Guard):
         return self._read("state_stamp", self.inner.state_stamp, -math.inf, finite_number)
 
     def is_moving(self) -> bool:
-        return self._read("is_moving", self.inner.is_moving, False, lambda _, moving: bool(moving))
+        return self._read("is_moving", self.inner.is_moving, False, truth_value)
 
     # --- guarded commands -------------------------------------------------------------------
     def move_linear(self, pose: np.ndarray, speed: float) -> None:
@@ -203,7 +203,7 @@ class SafeArm(Guard):
                 return self.fault()
             now = self.clock.now()
             self.fault()  # latches the driver's own fault
-            force = math.hypot(*self.tcp_wrench()[:3].tolist())
+            force = math.hypot(*self.tcp_wrench().tolist()[:3])
             self.pose()
             stamp = self.state_stamp()
             if self._causes:
@@ -214,7 +214,7 @@ class SafeArm(Guard):
                 self.trip(f"watchdog: tree has not ticked for {now - self._last_kick:.3f} s")
             elif now - stamp > self.limits.stale_after:
                 self.trip(f"stale arm state: {now - stamp:.3f} s old")
-            return self.fault()
+            return self.fault() if self._causes else None  # no trip: the driver's fault was read above
 
     def reset(self) -> None:
         """Clear the latched faults; for a person who has checked the cell, never automatic."""

@@ -11,65 +11,77 @@ import math
 
 import numpy as np
 
+IDENTITY = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
 
-def _rotation(r) -> list[float] | None:
-    """The 9 entries (row by row) of the rotation by rotation vector `r` (Rodrigues' formula);
-    None for no rotation."""
+
+def rotation_entries(r) -> tuple[float, ...]:
+    """The 9 entries (row by row) of the rotation by rotation vector `r` (Rodrigues' formula)."""
     x, y, z = r.tolist() if isinstance(r, np.ndarray) else map(float, r)
     angle = math.sqrt(x * x + y * y + z * z)
     if angle < 1e-12:
-        return None
+        return IDENTITY
     x, y, z = x / angle, y / angle, z / angle
     c, s = math.cos(angle), math.sin(angle)
     t = 1.0 - c
-    return [c + x * x * t, x * y * t - z * s, x * z * t + y * s,
+    return (c + x * x * t, x * y * t - z * s, x * z * t + y * s,
             y * x * t + z * s, c + y * y * t, y * z * t - x * s,
-            z * x * t - y * s, z * y * t + x * s, c + z * z * t]
+            z * x * t - y * s, z * y * t + x * s, c + z * z * t)
 
 
 def rotvec_to_matrix(r) -> np.ndarray:
     """Rodrigues' formula."""
-    entries = _rotation(r)
-    return np.eye(3) if entries is None else np.array(entries).reshape(3, 3)
+    return np.array(rotation_entries(r)).reshape(3, 3)
 
 
 def matrix_to_rotvec(m: np.ndarray) -> np.ndarray:
     """Inverse of Rodrigues' formula, stable near 0 and pi."""
-    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = (row[:3] for row in m.tolist()[:3])
+    return np.array(_rotvec(m.tolist()))
+
+
+def _rotvec(rows: list[list[float]]) -> list[float]:
+    """`matrix_to_rotvec` of the top-left 3x3 block of a matrix given by its rows."""
+    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = (row[:3] for row in rows[:3])
     cos = max(-1.0, min(1.0, (m00 + m11 + m22 - 1.0) / 2.0))
     angle = math.acos(cos)
     if angle < 1e-9:
-        return np.zeros(3)
+        return [0.0, 0.0, 0.0]
     if math.pi - angle < 1e-6:
         # Near a half turn the axis comes from the diagonal of (R + I) / 2.
-        m = np.asarray(m)[:3, :3]
+        m = np.array(rows)[:3, :3]
         axis = np.sqrt(np.maximum((np.diag(m) + 1.0) / 2.0, 0.0))
         i = int(np.argmax(axis))
         axis[(i + 1) % 3] = math.copysign(axis[(i + 1) % 3], m[i, (i + 1) % 3] + m[(i + 1) % 3, i])
         axis[(i + 2) % 3] = math.copysign(axis[(i + 2) % 3], m[i, (i + 2) % 3] + m[(i + 2) % 3, i])
-        return axis / np.linalg.norm(axis) * angle
+        return (axis / np.linalg.norm(axis) * angle).tolist()
     k = angle / (2.0 * math.sin(angle))
-    return np.array([(m21 - m12) * k, (m02 - m20) * k, (m10 - m01) * k])
+    return [(m21 - m12) * k, (m02 - m20) * k, (m10 - m01) * k]
 
 
 def homogeneous(pose) -> np.ndarray:
     """4x4 transform of a pose [x, y, z, rx, ry, rz]."""
     p = pose.tolist() if isinstance(pose, np.ndarray) else [float(v) for v in pose]
-    r = _rotation(p[3:6]) or [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+    r = rotation_entries(p[3:6])
     return np.array([r[0], r[1], r[2], p[0], r[3], r[4], r[5], p[1], r[6], r[7], r[8], p[2],
                      0.0, 0.0, 0.0, 1.0]).reshape(4, 4)
+
+
+def inverse_entries(r: tuple[float, ...], p: list[float]) -> tuple[float, ...]:
+    """The top 3 rows (row by row) of the inverse [R^T, -R^T p] of the rigid transform with rotation
+    entries `r` (row by row) and translation `p`."""
+    x, y, z = p[0], p[1], p[2]
+    return (r[0], r[3], r[6], -(r[0] * x + r[3] * y + r[6] * z),
+            r[1], r[4], r[7], -(r[1] * x + r[4] * y + r[7] * z),
+            r[2], r[5], r[8], -(r[2] * x + r[5] * y + r[8] * z))
 
 
 def rigid_inverse(t: np.ndarray) -> np.ndarray:
     """Inverse of a 4x4 rigid transform: [R^T, -R^T p]."""
     (r00, r01, r02, x), (r10, r11, r12, y), (r20, r21, r22, z) = t.tolist()[:3]
-    return np.array([r00, r10, r20, -(r00 * x + r10 * y + r20 * z),
-                     r01, r11, r21, -(r01 * x + r11 * y + r21 * z),
-                     r02, r12, r22, -(r02 * x + r12 * y + r22 * z),
+    return np.array([*inverse_entries((r00, r01, r02, r10, r11, r12, r20, r21, r22), [x, y, z]),
                      0.0, 0.0, 0.0, 1.0]).reshape(4, 4)
 
 
 def pose_of(t: np.ndarray) -> np.ndarray:
     """The pose [x, y, z, rx, ry, rz] of a 4x4 transform."""
-    r = matrix_to_rotvec(t)
-    return np.array([*t[:3, 3].tolist(), *r.tolist()])
+    rows = t.tolist()
+    return np.array([rows[0][3], rows[1][3], rows[2][3], *_rotvec(rows)])

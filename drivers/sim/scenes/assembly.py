@@ -29,12 +29,51 @@ from drivers.sim.models.fingervision_model import FingerContact
 from drivers.sim.models.plate import BeamPlate
 from drivers.sim.scenes.base import Scene
 from drivers.sim.scenes.scene_file import plate_loads, scene_file_of
-from drivers.sim.transforms import homogeneous, pose_of, rigid_inverse, rotvec_to_matrix
+from drivers.sim.transforms import homogeneous, inverse_entries, pose_of, rigid_inverse, rotation_entries
 from perception.state import ObjectInfo
 
 GRAVITY = 9.81
 CURVE_POINTS = 2001  # samples of the true load curve along a plate's span
 STRAY_LOAD_N = 1.0  # load from a plate an element does not prop that counts as pushing it (N)
+ROUNDING_MARGIN = 1e-9  # m, far beyond the rounding of distances of a few metres
+Point = tuple[float, float, float]
+NO_FORCE: Point = (0.0, 0.0, 0.0)
+
+
+@dataclass(eq=False, slots=True)  # not frozen: a frozen dataclass takes 3x as long to make
+class Frame:
+    """What an element's pose implies, on Python floats: worked out once per pose, as most elements
+    lie or stand still for many ticks and a held one is asked about several times a tick."""
+
+    key: bytes  # the pose's bytes
+    centre: Point
+    rotation: tuple[float, ...]  # element-to-base rotation, row by row
+    ends: tuple[Point, Point]  # (bottom, top) end points of the element axis, by height
+    core: tuple[Point, Point]  # axis of the capsule standing in for the element (radius half its width)
+    core_half: float  # half the core's length: no point of the core is further from the centre
+    inverse: tuple[float, ...]  # base-to-element transform, its top 3 rows, row by row
+
+    @classmethod
+    def of(cls, key: bytes, pose: np.ndarray, length: float, width: float) -> Frame:
+        """The frame of an element `length` long and `width` wide whose centre is at `pose` (bytes `key`)."""
+        p = pose.tolist()
+        r = rotation_entries(p[3:6])
+        half, core_half = length / 2.0, max(length / 2.0 - width / 2.0, 0.0)
+        a, b = _along(p, r, -half), _along(p, r, half)
+        return cls(key, (p[0], p[1], p[2]), r, (a, b) if a[2] <= b[2] else (b, a),
+                   (_along(p, r, -core_half), _along(p, r, core_half)), core_half, inverse_entries(r, p))
+
+    def local(self, x: float, y: float, z: float) -> Point:
+        """The base-frame point (x, y, z) in the element frame; the products are summed as numpy sums
+        those of a 4x4 matrix-vector product ((0 + 2) + (1 + 3)), so that results stay the same bit for bit."""
+        i = self.inverse
+        return ((i[0] * x + i[2] * z) + (i[1] * y + i[3]), (i[4] * x + i[6] * z) + (i[5] * y + i[7]),
+                (i[8] * x + i[10] * z) + (i[9] * y + i[11]))
+
+
+def _along(p: list[float], r: tuple[float, ...], s: float) -> Point:
+    """The point `s` along the x axis of rotation `r` from the point `p`."""
+    return p[0] + r[0] * s, p[1] + r[3] * s, p[2] + r[6] * s
 
 
 @dataclass
@@ -50,49 +89,27 @@ class Element:
     state: str = "lying"  # lying | held | standing | dropped
     plate: str = ""  # the plate the design has it prop ("": any)
     grasp: np.ndarray | None = None  # element pose in the tool frame while held (4x4)
-    _inverse: np.ndarray | None = field(default=None, repr=False)
-    _inverse_key: bytes = field(default=b"", repr=False)
-    _rotation: np.ndarray | None = field(default=None, repr=False)
-    _rotation_key: bytes = field(default=b"", repr=False)
+    _frame: Frame | None = field(default=None, repr=False)
 
-    def rotation(self) -> np.ndarray:
-        """Element-to-base rotation, cached while the element does not turn (do not change it)."""
-        key = self.pose[3:].tobytes()
-        if self._rotation_key != key:
-            self._rotation = rotvec_to_matrix(self.pose[3:])
-            self._rotation_key = key
-        return self._rotation
+    def frame(self, pose: np.ndarray | None = None) -> Frame:
+        """The element's frame were its centre at `pose` (default: where it is), kept for the last
+        pose asked about (compared by its bytes, as a pose may be changed in place)."""
+        pose = self.pose if pose is None else pose
+        key = pose.tobytes()
+        if self._frame is None or self._frame.key != key:
+            self._frame = Frame.of(key, pose, self.length, self.width)
+        return self._frame
 
-    def inverse(self) -> np.ndarray:
-        """Base-to-element transform, cached while the element does not move."""
-        key = self.pose.tobytes()
-        if self._inverse_key != key:
-            self._inverse = rigid_inverse(homogeneous(self.pose))
-            self._inverse_key = key
-        return self._inverse
-
-    def ends(self) -> tuple[np.ndarray, np.ndarray]:
+    def ends(self) -> tuple[Point, Point]:
         """(bottom, top) end points of the element axis, by height."""
-        axis = self.rotation()[:, 0] * (self.length / 2.0)
-        a, b = self.pose[:3] - axis, self.pose[:3] + axis
-        return (a, b) if a[2] <= b[2] else (b, a)
+        return self.frame().ends
 
     def is_upright(self, tol: float = 0.1) -> bool:
-        return abs(self.rotation()[2, 0]) > 1.0 - tol
-
-    def core(self, pose: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """End points of the axis of the capsule standing in for the element (radius half its
-        width, as long as the element) were its centre at `pose` (default: where it is)."""
-        rotation = self.rotation() if pose is None else rotvec_to_matrix(pose[3:])
-        pose = self.pose if pose is None else pose
-        axis = rotation[:, 0] * max(self.length / 2.0 - self.width / 2.0, 0.0)
-        return pose[:3] - axis, pose[:3] + axis
+        return abs(self.frame().rotation[6]) > 1.0 - tol
 
 
-def segment_distance(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarray) -> float:
-    """Least distance between the segments p0-p1 and q0-q1 (clamped closest points); on Python
-    floats, as it runs for every other element on every tick an element is held."""
-    p0, p1, q0, q1 = p0.tolist(), p1.tolist(), q0.tolist(), q1.tolist()
+def segment_distance(p0: Point, p1: Point, q0: Point, q1: Point) -> float:
+    """Least distance between the segments p0-p1 and q0-q1 (clamped closest points), on Python floats."""
     d1 = [p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]]
     d2 = [q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]]
     r = [p0[0] - q0[0], p0[1] - q0[1], p0[2] - q0[2]]
@@ -105,6 +122,15 @@ def segment_distance(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndar
         t = _unit(t)
         s = _unit((b * t - c) / a) if a > 1e-12 else 0.0
     return math.dist([p0[i] + d1[i] * s for i in range(3)], [q0[i] + d2[i] * t for i in range(3)])
+
+
+def _capsules_meet(a: Frame, a_width: float, b: Frame, b_width: float) -> bool:
+    """Whether the capsules of two elements (frames `a`, `b`) intersect; ones whose centres are further
+    apart than their half cores and radii together are not measured (most elements are far apart)."""
+    reach = (a_width + b_width) / 2.0
+    if math.dist(a.centre, b.centre) > a.core_half + b.core_half + reach + ROUNDING_MARGIN:
+        return False
+    return segment_distance(*a.core, *b.core) < reach
 
 
 def _dot(u: list[float], v: list[float]) -> float:
@@ -159,13 +185,14 @@ class AssemblyScene(Scene):
         self._loads: dict[str, float] = {}  # element id -> true load it carries now (N)
         self._slip = 0.0
         self._noise_scale: dict[str, float] = {}  # plate id -> load noise std (N)
-        self._contact = np.zeros(3)  # N, another element pushing back on the held one
+        self._contact = NO_FORCE  # N, another element pushing back on the held one
         self._force_key: tuple = ()  # (element, state, pose, contact) of the last external force
-        self._force_value = np.zeros(3)
+        self._force_value = NO_FORCE
+        self._bearing: tuple[Frame | None, Plate | None, float] = (None, None, 0.0)  # see _plate_on
         self.collisions: list[str] = []  # "E2 hit E1 at t s", in order
         self.plate_pushes: dict[tuple[str, str], list[float]] = {}  # (element, plate) -> [first t, most N]
         self._t = 0.0
-        self._settle(homogeneous(self.arm.pose()))
+        self._settle(homogeneous(self.arm.pose()).tolist())
 
     # ----------------------------------------------------------------------------------
     def held(self) -> Element | None:
@@ -174,18 +201,21 @@ class AssemblyScene(Scene):
                 return e
         return None
 
-    def _between_fingers(self, tool: np.ndarray) -> Element | None:
-        """The element held, else the one whose cross-section is between the open fingertips."""
+    def _between_fingers(self, tool: list[list[float]]) -> Element | None:
+        """The element held, else the one whose cross-section is between the open fingertips
+        (`tool`: the TCP transform's rows)."""
         held = self.held()
         if held is not None:
             return held
+        x, y, z, ty = tool[0][3], tool[1][3], tool[2][3], (tool[0][1], tool[1][1], tool[2][1])
         for e in self.elements.values():
-            local = e.inverse() @ tool[:, 3]
-            tool_y_in_e = e.rotation().T @ tool[:3, 1]
-            across = abs(tool_y_in_e[1]) > 0.9  # fingers close across the element width
+            frame = e.frame()
+            r = frame.rotation
+            if abs(r[1] * ty[0] + r[4] * ty[1] + r[7] * ty[2]) <= 0.9:
+                continue  # the fingers do not close across the element width
+            local = frame.local(x, y, z)
             if (
-                across
-                and abs(local[0]) <= e.length / 2.0
+                abs(local[0]) <= e.length / 2.0
                 and abs(local[1]) <= self.gripper.width() / 2.0
                 and abs(local[2]) <= e.depth / 2.0 + self.config.finger_reach
             ):
@@ -195,7 +225,8 @@ class AssemblyScene(Scene):
     def step(self, dt: float) -> None:
         self.arm.step(dt)
         tool = homogeneous(self.arm.pose())
-        e = self._between_fingers(tool)
+        rows = tool.tolist()
+        e = self._between_fingers(rows)
         self.gripper.object_width = e.width if e is not None else None
         self.gripper.step(dt)
         if e is not None and e.state != "held" and self.gripper.squeeze_force() > 0.0:
@@ -206,51 +237,52 @@ class AssemblyScene(Scene):
             self._release(held)
         elif held is not None:
             self._carry(held, pose_of(tool @ held.grasp))
-            if self._contact.any():
+            if any(self._contact):
                 self._slip = 0.3  # the hand drags the held-back element over the pads
             else:
                 self._update_slip(held, dt, tool)
         else:
             self._slip = 0.0
         self._t += dt
-        self._settle(tool)
+        self._settle(rows)
 
     def _carry(self, e: Element, pose: np.ndarray) -> None:
         """Move the held element to `pose`, unless another element is in the way: then it stays
         where it touched, pressed back with the contact stiffness by how far the hand went on."""
-        blocker = self._obstacle(e, pose)
+        blocker = self._obstacle(e, e.frame(pose))
         if blocker is None:
             e.pose = pose
-            self._contact = np.zeros(3)
+            self._contact = NO_FORCE
             return
-        if not self._contact.any():
+        if not any(self._contact):
             self.collisions.append(f"{e.id} hit {blocker.id} at {self._t:.1f} s")
-        self._contact = self.config.contact_stiffness * (e.pose[:3] - pose[:3])
+        k, was, now = self.config.contact_stiffness, e.pose.tolist(), pose.tolist()
+        self._contact = (k * (was[0] - now[0]), k * (was[1] - now[1]), k * (was[2] - now[2]))
 
-    def _obstacle(self, e: Element, pose: np.ndarray) -> Element | None:
-        """Another element that `e` would overlap at `pose` (their capsules intersect), if any."""
-        core = e.core(pose)
+    def _obstacle(self, e: Element, frame: Frame) -> Element | None:
+        """Another element that `e` would overlap in `frame` (their capsules intersect), if any."""
         for other in self.elements.values():
-            if other is not e and segment_distance(*core, *other.core()) < (e.width + other.width) / 2.0:
+            if other is not e and _capsules_meet(frame, e.width, other.frame(), other.width):
                 return other
         return None
 
-    def _settle(self, tool: np.ndarray) -> None:
-        """After a step: what is between the fingers and the (noisy) load the grip carries."""
+    def _settle(self, tool: list[list[float]]) -> None:
+        """After a step: what is between the fingers (`tool`: the TCP transform's rows) and the
+        (noisy) load the grip carries."""
         self._tool = tool
         self._near = self._between_fingers(tool)
-        force = np.zeros(3)
+        force = NO_FORCE
         if self._near is not None and self._near.state == "held":
             e = self._near
             force = self.external_force(e)
-            top = e.ends()[1]
-            plate = self.plate_above(top) if e.is_upright() else None
+            plate, load = self._plate_on(e)
             if plate is not None:
-                self._watch_push(e, plate, top)
+                self._watch_push(e, plate, load)
             if plate is not None and self.config.force_noise:
-                force[2] -= self._rng.normal(0.0, self._load_noise(plate, top))
+                noise = self._rng.normal(0.0, self._load_noise(plate, e.ends()[1]))
+                force = (force[0], force[1], force[2] - noise)
         self._force = force
-        self.arm.external_wrench = np.concatenate([force, np.zeros(3)])
+        self.arm.external_wrench = np.array([*force, 0.0, 0.0, 0.0])
 
     def _release(self, e: Element) -> None:
         bottom, _ = e.ends()
@@ -264,54 +296,58 @@ class AssemblyScene(Scene):
         self._slip = 0.3  # the object moves in the fingers as it goes
 
     # ---- loads ---------------------------------------------------------------------------
-    def external_force(self, e: Element) -> np.ndarray:
-        """Net force (base frame, N) the ground, the plates and gravity put on a held element (a new
-        array; computed once while the element, its state and the contact force stay as they are: a
-        tick asks for it twice when the element does not slip)."""
-        key = (e.id, e.state, e.pose.tobytes(), self._contact.tobytes())
+    def external_force(self, e: Element) -> Point:
+        """Net force (base frame, N) the ground, the plates and gravity put on a held element;
+        computed once while the element, its state and the contact force stay as they are (a tick
+        asks for it twice when the element does not slip)."""
+        key = (e.id, e.state, e.frame().key, self._contact)
         if key != self._force_key:
             self._force_key, self._force_value = key, self._external_force(e)
-        return self._force_value.copy()
+        return self._force_value
 
-    def _external_force(self, e: Element) -> np.ndarray:
-        bottom, top = e.ends()
-        f = np.array([0.0, 0.0, -e.mass * GRAVITY])
+    def _external_force(self, e: Element) -> Point:
+        bottom, _ = e.ends()
+        f0, f1, f2 = 0.0, 0.0, -e.mass * GRAVITY
         if e.state == "held":
-            f += self._contact
+            f0, f1, f2 = f0 + self._contact[0], f1 + self._contact[1], f2 + self._contact[2]
         if bottom[2] < 0.0:
-            f[2] += self.config.ground_stiffness * -bottom[2]
-        load = self.plate_load(e, top)
+            f2 += self.config.ground_stiffness * -bottom[2]
+        load = self.plate_load(e)
         if load:
-            f[2] -= load
-        return f
+            f2 -= load
+        return f0, f1, f2
 
-    def plate_load(self, e: Element, top: np.ndarray | None = None) -> float:
+    def plate_load(self, e: Element) -> float:
         """True load (N) the plate above puts on element `e`, noise-free."""
-        if not e.is_upright():
-            return 0.0
-        top = e.ends()[1] if top is None else top
-        plate = self.plate_above(top)
-        if plate is None:
-            return 0.0
-        a = plate.position_along(top)
-        return float(plate.beam.carried_force(a, plate.origin[2] - top[2]))
+        return self._plate_on(e)[1]
 
-    def plate_above(self, p: np.ndarray) -> Plate | None:
+    def _plate_on(self, e: Element) -> tuple[Plate | None, float]:
+        """The plate above upright element `e` (None: none) and the true load it puts on `e` (N),
+        worked out once per pose of `e`, as a held element's tick asks for them twice."""
+        frame = e.frame()
+        if self._bearing[0] is not frame:
+            top = frame.ends[1]
+            plate = self.plate_above(top) if e.is_upright() else None
+            load = 0.0 if plate is None else float(
+                plate.beam.carried_force(plate.position_along(top), plate.origin[2] - top[2]))
+            self._bearing = (frame, plate, load)
+        return self._bearing[1], self._bearing[2]
+
+    def plate_above(self, p) -> Plate | None:
         for plate in self.plates.values():
             if plate.position_along(p) is not None:
                 return plate
         return None
 
-    def _watch_push(self, e: Element, plate: Plate, top: np.ndarray) -> None:
-        """Note a held element pushing on a plate it does not prop (dragged under it), or pushing
-        any plate harder than the plate weighs (lifting it off its supports)."""
-        load = float(plate.beam.carried_force(plate.position_along(top), plate.origin[2] - top[2]))
+    def _watch_push(self, e: Element, plate: Plate, load: float) -> None:
+        """Note a held element pushing with `load` on a plate it does not prop (dragged under it), or
+        pushing any plate harder than the plate weighs (lifting it off its supports)."""
         stray = e.plate and plate.id != e.plate and load > STRAY_LOAD_N
         if stray or load > plate.beam.weight():
             seen = self.plate_pushes.setdefault((e.id, plate.id), [self._t, load])
             seen[1] = max(seen[1], load)
 
-    def _load_noise(self, plate: Plate, top: np.ndarray) -> float:
+    def _load_noise(self, plate: Plate, top: Point) -> float:
         """Std of the load noise under `plate`: `force_noise` times its true maximum load."""
         if plate.id not in self._noise_scale:
             peak = plate.beam.max_load(plate.origin[2] - top[2])[1]
@@ -321,24 +357,24 @@ class AssemblyScene(Scene):
     def _update_slip(self, e: Element, dt: float, tool: np.ndarray) -> None:
         """Let the element slide in the grasp when friction cannot hold the load."""
         f = self.external_force(e)
-        axis = e.rotation()[:, 0]
-        along = float(f @ axis)
+        r = e.frame().rotation
+        along = f[0] * r[0] + f[1] * r[3] + f[2] * r[6]  # along the element axis
         grip = 2.0 * self.config.friction * self.gripper.squeeze_force()
         excess = abs(along) - grip
         if excess <= 0.0:
             self._slip = 0.0
             return
         shift = np.sign(along) * min(0.05, excess / max(grip, 1e-6) * 0.02) * dt
-        e.pose[:3] += axis * shift
+        e.pose[:3] += np.array([r[0], r[3], r[6]]) * shift
         e.grasp = rigid_inverse(tool) @ homogeneous(e.pose)
         self._slip = min(1.0, 50.0 * abs(shift) / dt * 0.1)
         if abs(e.grasp[0, 3]) + abs(e.grasp[1, 3]) + abs(e.grasp[2, 3]) > e.length / 2.0:
             self._release(e)
 
     # ---- sensing --------------------------------------------------------------------------
-    def _views(self, e: Element, tool: np.ndarray, local: np.ndarray) -> tuple[ObjectInfo, ObjectInfo]:
-        """What the left and right fingertip cameras (tool-y side -1 and +1) see of `e`; `local` is
-        the TCP position in the element frame.
+    def _views(self, e: Element, tool: list[list[float]], local: Point) -> tuple[ObjectInfo, ObjectInfo]:
+        """What the left and right fingertip cameras (tool-y side -1 and +1) see of `e`; `tool` is the
+        TCP transform's rows, `local` the TCP position in the element frame.
 
         The visible share of the window along the element gives the area and centroid (the same
         share for both fingertips, mirrored); the gap between the element face and each pad scales
@@ -349,14 +385,17 @@ class AssemblyScene(Scene):
         overlap = max(0.0, hi - lo)
         if overlap <= 0.0:
             return ObjectInfo(), ObjectInfo()
-        offset = (tool[:3, :3].T @ (e.pose[:3] - tool[:3, 3]))[1]  # element centre, tool y
+        (_, t01, _, x), (_, t11, _, y), (_, t21, _, z) = tool[:3]
+        c = e.frame().centre
+        offset = t01 * (c[0] - x) + t11 * (c[1] - y) + t21 * (c[2] - z)  # element centre, tool y
         half_width = self.gripper.width() / 2.0
         centre = ((lo + hi) / 2.0 - local[0]) / (2.0 * r)  # -0.5 .. 0.5 of the image width
         views = []
         for side in (-1.0, 1.0):
             gap = max(0.0, half_width - side * offset - e.width / 2.0)
             area = 0.35 * overlap / (2.0 * r) / (1.0 + gap / 0.01)
-            views.append(ObjectInfo(True, area, np.array([side * centre, 0.0]), 0.0))
+            # the area stays the numpy float it always was: run digests hash its repr
+            views.append(ObjectInfo(True, np.float64(area), np.array([side * centre, 0.0]), 0.0))
         return views[0], views[1]
 
     def contacts(self) -> dict[str, FingerContact]:
@@ -365,9 +404,10 @@ class AssemblyScene(Scene):
         if e is None:
             return {"left": FingerContact(), "right": FingerContact()}
         normal = self.gripper.squeeze_force()
-        f_tool = tool[:3, :3].T @ self._force  # element pushes the fingers with the external load
-        views = self._views(e, tool, e.inverse() @ tool[:, 3])
-        shear_x, shear_z = 0.5 * f_tool[0], 0.5 * f_tool[2]
+        (t00, _, t02, x), (t10, _, t12, y), (t20, _, t22, z) = tool[:3]
+        f0, f1, f2 = self._force  # the element pushes the fingers with the external load
+        shear_x, shear_z = 0.5 * (t00 * f0 + t10 * f1 + t20 * f2), 0.5 * (t02 * f0 + t12 * f1 + t22 * f2)
+        views = self._views(e, tool, e.frame().local(x, y, z))
         return {finger: FingerContact(normal, np.array([side * shear_x, shear_z]), 0.0, None, view, self._slip)
                 for finger, side, view in (("left", -1.0, views[0]), ("right", 1.0, views[1]))}
 
