@@ -7,6 +7,7 @@ from py_trees.common import Access, Status
 
 from assembly.design import WAIT
 from behaviours import keys
+from behaviours.base import KeyReads
 
 
 class ForEachElement(py_trees.decorators.Decorator):
@@ -37,6 +38,7 @@ class ForEachElement(py_trees.decorators.Decorator):
         for key in (keys.ELEMENT, keys.PLATES):
             self.bb.register_key(key=key, access=Access.WRITE)
         self.bb.register_key(key=keys.ASBUILT, access=Access.READ)
+        self.reads = KeyReads(self.bb)
 
     def setup(self, **kwargs) -> None:
         self.design = kwargs.get("design")
@@ -121,7 +123,7 @@ class ForEachElement(py_trees.decorators.Decorator):
 
     def _hand_on_record(self) -> None:
         """Record a new /task/asbuilt record of the current element (`placing` or `placed`)."""
-        record = self.bb.get(keys.ASBUILT) if self.bb.exists(keys.ASBUILT) else None
+        record = self.reads.get(keys.ASBUILT)
         if record is None or record is self._record or record.get("element") != self.current:
             return
         self._record = record

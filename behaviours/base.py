@@ -38,6 +38,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 import py_trees
+from py_trees.blackboard import Blackboard, Client
 from py_trees.common import Access, Status
 
 from behaviours import keys
@@ -117,6 +118,32 @@ def gone_share() -> Param:
                  "(a few background pixels of the object's colours stay in view)", 0.25, min=0.0, max=1.0)
 
 
+class KeyReads:
+    """Reads through a blackboard client at the cost of a dict lookup: the name of each key the client
+    registered is resolved (namespace, remapping) and its access checked once, here, where the client's
+    `get` does both on every read. A key registered later, a nested name, an unregistered key (refused
+    with AttributeError) and any read while py_trees records its activity stream go through the client."""
+
+    def __init__(self, client: Client):
+        self.client = client
+        remappings = client.remappings
+        self._names = {key: remappings[key] for key in client.read | client.write | client.exclusive}
+
+    def __getitem__(self, key: str) -> Any:
+        """The value of `key`; KeyError when it is unset, as from the client."""
+        name = self._names.get(key)
+        if name is None or Blackboard.activity_stream is not None:
+            return self.client.get(key)
+        return Blackboard.storage[name]
+
+    def get(self, key: str, default: Any = None) -> Any:
+        """The value of `key`, or `default` when it is unset."""
+        try:
+            return self[key]
+        except KeyError:
+            return default
+
+
 class Skill(py_trees.behaviour.Behaviour):
     """A py_trees behaviour with declared parameters that acts on the cell.
 
@@ -143,6 +170,7 @@ class Skill(py_trees.behaviour.Behaviour):
             self.bb.register_key(key=key, access=Access.READ)
         for key in self.WRITES:
             self.bb.register_key(key=key, access=Access.WRITE)
+        self.reads = KeyReads(self.bb)
 
     @classmethod
     def resolve_params(cls, given: dict[str, Any]) -> dict[str, Any]:
@@ -194,17 +222,14 @@ class Skill(py_trees.behaviour.Behaviour):
 
     def read(self, key: str, default: Any = None) -> Any:
         """A blackboard value, or `default` when the key is unset."""
-        try:
-            return self.bb.get(key)
-        except KeyError:
-            return default
+        return self.reads.get(key, default)
 
     def write(self, key: str, value: Any) -> None:
         self.bb.set(key, value, overwrite=True)
 
     def tactile(self):
         """(left, right) TactileStates of this tick."""
-        return self.bb.get(keys.FV_LEFT), self.bb.get(keys.FV_RIGHT)
+        return self.reads[keys.FV_LEFT], self.reads[keys.FV_RIGHT]
 
     def fail(self, message: str) -> Status:
         self.feedback_message = message
@@ -214,7 +239,7 @@ class Skill(py_trees.behaviour.Behaviour):
     # This tick's robot state, from the perception stage's snapshot ------------------------
     def _state(self, key: str) -> Any:
         try:
-            return self.bb.get(key)
+            return self.reads[key]
         except KeyError:
             raise RuntimeError(f"skill {self.name!r}: {key} is not on the blackboard; tick skills "
                                "through the Runner, whose perception stage writes it") from None
