@@ -31,7 +31,7 @@ Rules for skill authors:
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from types import SimpleNamespace
 from typing import Any, ClassVar
@@ -208,6 +208,28 @@ class Skill(py_trees.behaviour.Behaviour):
             raise RuntimeError(f"skill {self.name!r} needs tree.setup(cell=...) before ticking")
         self.cell = cell
 
+    def tick(self) -> Iterator[Skill]:
+        """py_trees' `Behaviour.tick` without its per-tick overhead (a debug message formatted whether
+        or not it is printed, a list of every Status to check the one returned): initialise unless
+        running, update, stop on a final status."""
+        if self.status is not Status.RUNNING:
+            self.initialise()
+        new_status = self.update()
+        if not isinstance(new_status, Status):
+            self.logger.error(f"A behaviour returned an invalid status, setting to INVALID [{new_status}][{self.name}]")
+            new_status = Status.INVALID
+        if new_status is not Status.RUNNING:
+            self.stop(new_status)
+        self.status = new_status
+        yield self
+
+    def stop(self, new_status: Status) -> None:
+        """py_trees' `Behaviour.stop` without formatting its debug message (the estop guard stops on
+        every tick): terminate, take the status, make the next tick's generator."""
+        self.terminate(new_status)
+        self.status = new_status
+        self.iterator = self.tick()
+
     def terminate(self, new_status: Status) -> None:
         """Halted mid-run (RUNNING -> INVALID): stop the arm and the gripper, whatever this
         skill commanded. A skill that had already finished leaves the devices alone, since a
@@ -281,6 +303,13 @@ class ProgramSkill(Skill):
     closes the generator and stops the arm and the gripper.
     """
 
+    _touch_keys: ClassVar[tuple[str, ...]] = ()  # the fingertip keys among READS, checked every tick
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """Find the fingertip keys among the skill's READS once, not on every tick."""
+        super().__init_subclass__(**kwargs)
+        cls._touch_keys = tuple(key for key in _TOUCH_KEYS if key in cls.READS)
+
     def initialise(self) -> None:
         self.feedback_message = ""
         self._program = self.program()
@@ -303,7 +332,7 @@ class ProgramSkill(Skill):
 
     def _unhealthy_touch(self) -> str | None:
         """Why this tick's fingertip states cannot be trusted, for a skill that reads them."""
-        for key in (k for k in _TOUCH_KEYS if k in self.READS):
+        for key in self._touch_keys:
             state = self.read(key)
             if state is not None and not state.healthy:
                 return f"perception on {key} is unhealthy: {state.health_reason or 'no reason given'}"
