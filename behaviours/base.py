@@ -296,6 +296,12 @@ def summed_force(left, right) -> np.ndarray:
     return left.force + right.force
 
 
+def magnitude(vector: np.ndarray) -> float:
+    """Length of a float vector: np.linalg.norm's value (the same dot product and square root),
+    without its argument checks, which cost several times the sum on a 3-vector."""
+    return math.sqrt(vector.dot(vector))
+
+
 class ProgramSkill(Skill):
     """A skill written as a generator: `program()` yields once per tick and returns a Status.
 
