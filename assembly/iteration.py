@@ -7,6 +7,7 @@ from py_trees.common import Access, Status
 
 from assembly.design import WAIT
 from behaviours import keys
+from behaviours.base import KeyReads
 
 
 class ForEachElement(py_trees.decorators.Decorator):
@@ -31,12 +32,14 @@ class ForEachElement(py_trees.decorators.Decorator):
         self.bridge = None
         self.world = None  # the simulated world, which stands what other cells placed
         self.current: str | None = None
+        self._node: dict | None = None  # the current element's attributes in the design graph (live)
         self.waiting = False  # the dispatcher said to wait for another cell
         self._record: dict | None = None  # the last /task/asbuilt record handed on
         self.bb = self.attach_blackboard_client(name=name)
         for key in (keys.ELEMENT, keys.PLATES):
             self.bb.register_key(key=key, access=Access.WRITE)
         self.bb.register_key(key=keys.ASBUILT, access=Access.READ)
+        self.reads = KeyReads(self.bb)
 
     def setup(self, **kwargs) -> None:
         self.design = kwargs.get("design")
@@ -54,8 +57,7 @@ class ForEachElement(py_trees.decorators.Decorator):
     def _left_placing(self) -> bool:
         """The current element's release began before this attempt and was never confirmed:
         building it again could place it twice, so a person must check it first."""
-        return (self._record is None and self.current is not None
-                and self.design.graph.nodes[self.current].get("status") == "placing")
+        return self._record is None and self._node is not None and self._node.get("status") == "placing"
 
     def _publish_next(self) -> None:
         """At an element boundary: take in design changes, then publish the next element."""
@@ -68,6 +70,8 @@ class ForEachElement(py_trees.decorators.Decorator):
         choice = self.bridge.next_element(remaining) if self.bridge else (remaining[0] if remaining else None)
         self.waiting = choice == WAIT
         self.current = None if self.waiting else choice
+        # Looked up once per element (design changes replace nodes only at boundaries, above); read live.
+        self._node = None if self.current is None else self.design.graph.nodes[self.current]
         self._record = None
         if self.waiting:
             self.feedback_message = "waiting for another cell"
@@ -121,13 +125,13 @@ class ForEachElement(py_trees.decorators.Decorator):
 
     def _hand_on_record(self) -> None:
         """Record a new /task/asbuilt record of the current element (`placing` or `placed`)."""
-        record = self.bb.get(keys.ASBUILT) if self.bb.exists(keys.ASBUILT) else None
+        record = self.reads.get(keys.ASBUILT)
         if record is None or record is self._record or record.get("element") != self.current:
             return
         self._record = record
         status = record.get("status", "placed")
         if self.bridge is None:
-            self.design.graph.nodes[self.current]["status"] = status
+            self._node["status"] = status
         elif status == "placing":
             self.bridge.record_placing(self.current, record["pose"], record.get("load"))
         else:

@@ -4,7 +4,7 @@ on the snapshot, anything that makes the cell unfit to move latches a stop of ar
 
 Causes, in the order they are checked: an arm fault (driver, protective stop, e-stop, the force
 limit or watchdog latched by `SafeArm`), a gripper fault, a lost link (arm state older than the
-arm's `stale_after`), the TCP force over the arm's `max_force` (or not finite), fingertip
+arm's `stale_after`), the snapshot's TCP force over the arm's `max_force` (or not finite), fingertip
 perception older than `perception_stale_after` (`TactileState.stamp` against the cell clock),
 and unhealthy perception (`TactileState.healthy`).
 
@@ -111,7 +111,9 @@ class Supervisor:
         age = now - arm.state_stamp()
         if not age <= arm.limits.stale_after:
             return f"link to the arm lost: its state is {age:.3f} s old (limit {arm.limits.stale_after} s)"
-        force = math.hypot(*arm.tcp_wrench()[:3].tolist())
+        # The wrench the perception stage just read through the arm's safety layer (a second read costs
+        # as much again): the force the tree is about to act on.
+        force = math.hypot(*Blackboard.storage[keys.ROBOT_WRENCH][:3].tolist())
         if not force <= arm.limits.max_force:
             return f"force over the limit: {force:.1f} N > {arm.limits.max_force:.1f} N"
         return self._perception_cause(now)

@@ -31,13 +31,14 @@ Rules for skill authors:
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from types import SimpleNamespace
 from typing import Any, ClassVar
 
 import numpy as np
 import py_trees
+from py_trees.blackboard import Blackboard, Client
 from py_trees.common import Access, Status
 
 from behaviours import keys
@@ -117,6 +118,32 @@ def gone_share() -> Param:
                  "(a few background pixels of the object's colours stay in view)", 0.25, min=0.0, max=1.0)
 
 
+class KeyReads:
+    """Reads through a blackboard client at the cost of a dict lookup: the name of each key the client
+    registered is resolved (namespace, remapping) and its access checked once, here, where the client's
+    `get` does both on every read. A key registered later, a nested name, an unregistered key (refused
+    with AttributeError) and any read while py_trees records its activity stream go through the client."""
+
+    def __init__(self, client: Client):
+        self.client = client
+        remappings = client.remappings
+        self._names = {key: remappings[key] for key in client.read | client.write | client.exclusive}
+
+    def __getitem__(self, key: str) -> Any:
+        """The value of `key`; KeyError when it is unset, as from the client."""
+        name = self._names.get(key)
+        if name is None or Blackboard.activity_stream is not None:
+            return self.client.get(key)
+        return Blackboard.storage[name]
+
+    def get(self, key: str, default: Any = None) -> Any:
+        """The value of `key`, or `default` when it is unset."""
+        try:
+            return self[key]
+        except KeyError:
+            return default
+
+
 class Skill(py_trees.behaviour.Behaviour):
     """A py_trees behaviour with declared parameters that acts on the cell.
 
@@ -143,6 +170,7 @@ class Skill(py_trees.behaviour.Behaviour):
             self.bb.register_key(key=key, access=Access.READ)
         for key in self.WRITES:
             self.bb.register_key(key=key, access=Access.WRITE)
+        self.reads = KeyReads(self.bb)
 
     @classmethod
     def resolve_params(cls, given: dict[str, Any]) -> dict[str, Any]:
@@ -180,6 +208,28 @@ class Skill(py_trees.behaviour.Behaviour):
             raise RuntimeError(f"skill {self.name!r} needs tree.setup(cell=...) before ticking")
         self.cell = cell
 
+    def tick(self) -> Iterator[Skill]:
+        """py_trees' `Behaviour.tick` without its per-tick overhead (a debug message formatted whether
+        or not it is printed, a list of every Status to check the one returned): initialise unless
+        running, update, stop on a final status."""
+        if self.status is not Status.RUNNING:
+            self.initialise()
+        new_status = self.update()
+        if not isinstance(new_status, Status):
+            self.logger.error(f"A behaviour returned an invalid status, setting to INVALID [{new_status}][{self.name}]")
+            new_status = Status.INVALID
+        if new_status is not Status.RUNNING:
+            self.stop(new_status)
+        self.status = new_status
+        yield self
+
+    def stop(self, new_status: Status) -> None:
+        """py_trees' `Behaviour.stop` without formatting its debug message (the estop guard stops on
+        every tick): terminate, take the status, make the next tick's generator."""
+        self.terminate(new_status)
+        self.status = new_status
+        self.iterator = self.tick()
+
     def terminate(self, new_status: Status) -> None:
         """Halted mid-run (RUNNING -> INVALID): stop the arm and the gripper, whatever this
         skill commanded. A skill that had already finished leaves the devices alone, since a
@@ -194,17 +244,14 @@ class Skill(py_trees.behaviour.Behaviour):
 
     def read(self, key: str, default: Any = None) -> Any:
         """A blackboard value, or `default` when the key is unset."""
-        try:
-            return self.bb.get(key)
-        except KeyError:
-            return default
+        return self.reads.get(key, default)
 
     def write(self, key: str, value: Any) -> None:
         self.bb.set(key, value, overwrite=True)
 
     def tactile(self):
         """(left, right) TactileStates of this tick."""
-        return self.bb.get(keys.FV_LEFT), self.bb.get(keys.FV_RIGHT)
+        return self.reads[keys.FV_LEFT], self.reads[keys.FV_RIGHT]
 
     def fail(self, message: str) -> Status:
         self.feedback_message = message
@@ -214,7 +261,7 @@ class Skill(py_trees.behaviour.Behaviour):
     # This tick's robot state, from the perception stage's snapshot ------------------------
     def _state(self, key: str) -> Any:
         try:
-            return self.bb.get(key)
+            return self.reads[key]
         except KeyError:
             raise RuntimeError(f"skill {self.name!r}: {key} is not on the blackboard; tick skills "
                                "through the Runner, whose perception stage writes it") from None
@@ -249,12 +296,25 @@ def summed_force(left, right) -> np.ndarray:
     return left.force + right.force
 
 
+def magnitude(vector: np.ndarray) -> float:
+    """Length of a float vector: np.linalg.norm's value (the same dot product and square root),
+    without its argument checks, which cost several times the sum on a 3-vector."""
+    return math.sqrt(vector.dot(vector))
+
+
 class ProgramSkill(Skill):
     """A skill written as a generator: `program()` yields once per tick and returns a Status.
 
     Multi-phase skills (move, measure, decide) then read top to bottom. Interrupting the skill
     closes the generator and stops the arm and the gripper.
     """
+
+    _touch_keys: ClassVar[tuple[str, ...]] = ()  # the fingertip keys among READS, checked every tick
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """Find the fingertip keys among the skill's READS once, not on every tick."""
+        super().__init_subclass__(**kwargs)
+        cls._touch_keys = tuple(key for key in _TOUCH_KEYS if key in cls.READS)
 
     def initialise(self) -> None:
         self.feedback_message = ""
@@ -278,7 +338,7 @@ class ProgramSkill(Skill):
 
     def _unhealthy_touch(self) -> str | None:
         """Why this tick's fingertip states cannot be trusted, for a skill that reads them."""
-        for key in (k for k in _TOUCH_KEYS if k in self.READS):
+        for key in self._touch_keys:
             state = self.read(key)
             if state is not None and not state.healthy:
                 return f"perception on {key} is unhealthy: {state.health_reason or 'no reason given'}"

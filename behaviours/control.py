@@ -38,6 +38,7 @@ class ForceChangeDetector:
         self.min_markers = min_markers
         self.reference_frames = reference_frames
         self._ref: list[np.ndarray] = []
+        self._mean: np.ndarray | None = None  # the reference field, once its frames are in
         self.changed = 0
 
     def update(self, *marker_forces: np.ndarray) -> bool:
@@ -46,8 +47,9 @@ class ForceChangeDetector:
         if len(self._ref) < self.reference_frames:
             self._ref.append(f)
             return False
-        ref = np.mean(self._ref, axis=0)
-        self.changed = int(np.count_nonzero(np.linalg.norm(f - ref, axis=1) > self.threshold))
+        if self._mean is None:  # averaged once: the reference frames do not change after
+            self._mean = np.mean(self._ref, axis=0)
+        self.changed = int(np.count_nonzero(np.linalg.norm(f - self._mean, axis=1) > self.threshold))
         return self.changed > self.min_markers
 
 

@@ -8,7 +8,7 @@ import numpy as np
 from py_trees.common import Status
 
 from behaviours import keys
-from behaviours.base import Param, ProgramSkill, summed_force
+from behaviours.base import Param, ProgramSkill, magnitude, summed_force
 from behaviours.registry import register
 
 
@@ -36,8 +36,8 @@ class DescendUntilContact(ProgramSkill):
         while True:
             yield
             left, right = self.tactile()
-            change = float(np.linalg.norm(summed_force(left, right) - f0))
-            felt = float(np.linalg.norm(self.read(keys.ROBOT_WRENCH)[:3] - w0))
+            change = magnitude(summed_force(left, right) - f0)
+            felt = magnitude(self.read(keys.ROBOT_WRENCH)[:3] - w0)
             pose = self.pose()
             travelled = start_z - pose[2]
             self.feedback_message = (f"down {travelled * 1000:.1f} mm, |f - f0| = {change:.2f} px, "

@@ -29,7 +29,7 @@ from py_trees.common import Status
 
 from behaviours import keys
 from behaviours.approach_plate import plate_of
-from behaviours.base import Param, ProgramSkill, summed_force
+from behaviours.base import Param, ProgramSkill, magnitude, summed_force
 from behaviours.hand import slip_beyond_marker_flow
 from behaviours.load_search import locate_peak
 from behaviours.registry import register
@@ -136,16 +136,16 @@ class FindMaxLoad(ProgramSkill):
             left, right = self.tactile()
             # The plate pushes the upright element down its axis (image x of both fingers).
             positions.append(self.pose()[0] - x0)
-            loads.append(-(summed_force(left, right) - f_ref)[0])
+            loads.append(-(left.force[0] + right.force[0] - f_ref[0]))
             before = last[0] or (left, right)
             last[0] = (left, right)
-            recent.append(sum(slip_beyond_marker_flow(now, was, self.p.flow_gain, self.p.flow_saturation)
-                              for now, was in zip((left, right), before)))
+            recent.append(slip_beyond_marker_flow(left, before[0], self.p.flow_gain, self.p.flow_saturation)
+                          + slip_beyond_marker_flow(right, before[1], self.p.flow_gain, self.p.flow_saturation))
             slipped[0] = len(recent) == recent.maxlen and statistics.median(recent) > self.p.slip
             self.feedback_message = f"scan at {positions[-1]:.3f} m, load {loads[-1]:.2f}"
             if slipped[0]:
                 return f"the element slipped in the grip at {positions[-1]:.3f} m along the plate"
-            felt = float(np.linalg.norm(self.read(keys.ROBOT_WRENCH)[:3]))
+            felt = magnitude(self.read(keys.ROBOT_WRENCH)[:3])
             if 0.0 < self.p.max_scan_force < felt:
                 return (f"the arm felt {felt:.1f} N at {positions[-1]:.3f} m along the plate, over "
                         f"max_scan_force {self.p.max_scan_force:g} N")
@@ -196,7 +196,7 @@ class FindMaxLoad(ProgramSkill):
         touched = []
 
         def ground() -> str | None:
-            change = float(np.linalg.norm(summed_force(*self.tactile()) - f_ref))
+            change = magnitude(summed_force(*self.tactile()) - f_ref)
             if change > self.p.touch_eps:
                 touched.append(change)
                 return "foot on the ground"

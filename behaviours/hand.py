@@ -38,12 +38,16 @@ def slip_beyond_marker_flow(now: TactileState, before: TactileState, gain: float
     object sliding over them. Explained: `gain` x object area x the markers' mean motion since
     `before` (px/frame, capped at `saturation`); what stays is the object moving against them."""
     both = now.markers.valid & before.markers.valid
-    if not both.any() or not now.obj.present:
+    tracked = np.count_nonzero(both)
+    if not tracked or not now.obj.present:
         return now.slip
-    moved = now.markers.position[both] - before.markers.position[both]
+    # Every marker's distance, then the tracked ones': one mask of a 1-D array is far cheaper than masking
+    # both (N, 2) positions, and np.linalg.norm(axis=1) costs more than these few in-place ufuncs.
+    moved = now.markers.position - before.markers.position
     moved *= moved
-    distances = np.sqrt(np.add.reduce(moved, axis=1))  # np.linalg.norm(axis=1), without its overhead
-    speed = float(np.add.reduce(distances)) / len(distances)
+    distances = np.add(moved[:, 0], moved[:, 1])
+    np.sqrt(distances, out=distances)
+    speed = float(np.add.reduce(distances[both])) / tracked
     return max(0.0, now.slip - gain * now.obj.area * min(speed, saturation))
 
 

@@ -7,7 +7,7 @@ import numpy as np
 from py_trees.common import Status
 
 from behaviours import keys
-from behaviours.base import Param, ProgramSkill
+from behaviours.base import Param, ProgramSkill, magnitude
 from behaviours.geometry import rotation
 from behaviours.registry import register
 
@@ -43,7 +43,7 @@ class VisScan(ProgramSkill):
         prev_pos, prev_area = start.copy(), self._area()
         arm.speed_linear(np.r_[direction * (self.p.step / self.cell.clock.period), 0.0, 0.0, 0.0])
         pos = start
-        while float(np.linalg.norm(pos - start)) < self.p.max_travel:
+        while magnitude(pos - start) < self.p.max_travel:
             yield
             if self.arm_fault():
                 return None

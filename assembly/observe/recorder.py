@@ -21,7 +21,8 @@ from __future__ import annotations
 
 import json
 import time
-from operator import attrgetter
+from itertools import compress
+from operator import attrgetter, ne
 from pathlib import Path
 from typing import Any
 
@@ -102,6 +103,7 @@ class RunRecorder:
         self._origins: dict[str, np.ndarray | None] = {f: None for f in FINGERS}
         self._origins_logged = False  # new origins logged since the last batch (to be written before its arrows)
         self._element = self._profile = self._scan = None
+        self._element_id = "element"  # the id of the element being built, naming its load profile
         self._next_scan, self._scan_drawn = 0.0, 0  # cell time of the next drawing of the scan, samples drawn
         self._design = design
         self._events = events
@@ -193,10 +195,8 @@ class RunRecorder:
             return
         self._seen = seen
         changed = False
-        for k, state in enumerate(seen):
-            if last and state == last[k]:
-                continue
-            status, feedback = state
+        for k in compress(range(len(seen)), map(ne, seen, last)) if last else range(len(seen)):
+            status, feedback = seen[k]
             path = self._paths[k]
             before = self._last[k]
             if status is before:
@@ -219,19 +219,19 @@ class RunRecorder:
         element = storage.get(keys.ELEMENT)
         if element is not self._element:
             self._element = element
+            self._element_id = (element or {}).get("id", "element")
             self._at(tick, now, "task/element", rr.TextLog(
                 f"element {element.get('id')} on plate {element.get('plate')}" if element else "no element"))
-        element_id = (element or {}).get("id", "element")
         scan = storage.get(keys.LOAD_SCAN)
         if scan is not self._scan:
             self._scan, self._scan_drawn = scan, 0
         if scan is not None and len(scan["position"]) > self._scan_drawn and now >= self._next_scan:
             self._scan_drawn, self._next_scan = len(scan["position"]), now + SCAN_PERIOD
-            self._log_scan(tick, now, scan, element_id)
+            self._log_scan(tick, now, scan, self._element_id)
         profile = storage.get(keys.LOAD_PROFILE)
         if profile is not None and profile is not self._profile:
             self._profile = profile
-            self._log_profile(tick, now, profile, element_id)
+            self._log_profile(tick, now, profile, self._element_id)
             if scan is not None:  # the whole scan is drawn now
                 self._scan_drawn = len(scan["position"])
 
