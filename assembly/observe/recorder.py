@@ -20,11 +20,12 @@ costs the main process ~0.04 ms a frame, logging each frame on its own ~0.2-0.4 
 from __future__ import annotations
 
 import json
+import os
 import time
 from itertools import compress
 from operator import attrgetter, ne
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 import py_trees
@@ -107,7 +108,8 @@ class RunRecorder:
         self._next_scan, self._scan_drawn = 0.0, 0  # cell time of the next drawing of the scan, samples drawn
         self._design = design
         self._events = events
-        self._events_read = 0
+        self._events_file: BinaryIO | None = None
+        self._events_read = 0  # bytes of the event log recorded
         self._closed = self._finished = False
         self._static(tree)
         for guard in (cell.arm, cell.gripper):
@@ -261,18 +263,19 @@ class RunRecorder:
             labels=[f"{element}: best {profile['best_position']:.4f} m, load {profile['best_load']:.2f}"]))
 
     def _read_events(self, tick: int, now: float) -> None:
-        try:
-            size = self._events.stat().st_size
-        except OSError:
+        """The event log's lines appended since the last tick (the log is append-only, so it is opened
+        once it exists and its size read from the open file: a path's stat costs several us a tick)."""
+        if self._events_file is None:
+            if not os.access(self._events, os.F_OK):
+                return
+            self._events_file = open(self._events, "rb")  # noqa: SIM115 - open for the run, closed in finish
+        if os.fstat(self._events_file.fileno()).st_size <= self._events_read:
             return
-        if size <= self._events_read:
-            return
-        with open(self._events) as f:
-            f.seek(self._events_read)
-            text = f.read()
-        complete = text[:text.rfind("\n") + 1]
-        self._events_read += len(complete.encode())
-        for line in complete.splitlines():
+        self._events_file.seek(self._events_read)
+        data = self._events_file.read()
+        complete = data[:data.rfind(b"\n") + 1]
+        self._events_read += len(complete)
+        for line in complete.decode().splitlines():
             try:
                 event = json.loads(line)
             except ValueError:
@@ -398,6 +401,8 @@ class RunRecorder:
             self._finished = True
             if self._events is not None:
                 self._read_events(self._next_tick, self.cell.clock.now())
+                if self._events_file is not None:
+                    self._events_file.close()
             self.stream.flush()
             self.stream.disconnect()
 
