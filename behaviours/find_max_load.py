@@ -27,7 +27,7 @@ from collections import deque
 import numpy as np
 from py_trees.common import Status
 
-from behaviours import keys
+from behaviours import hand, keys
 from behaviours.approach_plate import plate_of
 from behaviours.base import Param, ProgramSkill, magnitude, summed_force
 from behaviours.hand import slip_beyond_marker_flow
@@ -76,6 +76,10 @@ class FindMaxLoad(ProgramSkill):
         lo, hi = params["span"]
         if lo >= hi:
             raise ValueError(f"span must run forward, got [{lo}, {hi}]")
+
+    def setup(self, **kwargs) -> None:
+        super().setup(**kwargs)
+        hand.warm_up()  # the compiled marker motion loaded now, not on the scan's first tick
 
     def program(self):
         element = self.read(keys.ELEMENT)

@@ -8,12 +8,15 @@ image x runs along tool x (mirrored on the left finger), image y along tool z.
 
 from __future__ import annotations
 
+import math
 import statistics
 from collections import deque
 
 import numpy as np
+from numba import njit
 
 from perception.state import ObjectInfo, TactileState
+from perception.sums import pairwise_sum
 
 
 def hand_force(left: TactileState, right: TactileState) -> np.ndarray:
@@ -36,19 +39,38 @@ def slip_beyond_marker_flow(now: TactileState, before: TactileState, gain: float
     """One finger's slip beyond what its markers' own motion explains: the pipeline's slip is image
     motion over the object, so markers moving under a changing load light it up as much as the
     object sliding over them. Explained: `gain` x object area x the markers' mean motion since
-    `before` (px/frame, capped at `saturation`); what stays is the object moving against them."""
-    both = now.markers.valid & before.markers.valid
-    tracked = np.count_nonzero(both)
-    if not tracked or not now.obj.present:
+    `before` (px/frame, capped at `saturation`); what stays is the object moving against them.
+    Nothing is explained when no marker was tracked in both states or the two fields differ (a new
+    calibration between them)."""
+    a, b = now.markers, before.markers
+    if not now.obj.present or a.position.shape != b.position.shape or not len(a.valid) == len(b.valid) == len(a):
         return now.slip
-    # Every marker's distance, then the tracked ones': one mask of a 1-D array is far cheaper than masking
-    # both (N, 2) positions, and np.linalg.norm(axis=1) costs more than these few in-place ufuncs.
-    moved = now.markers.position - before.markers.position
-    moved *= moved
-    distances = np.add(moved[:, 0], moved[:, 1])
-    np.sqrt(distances, out=distances)
-    speed = float(np.add.reduce(distances[both])) / tracked
-    return max(0.0, now.slip - gain * now.obj.area * min(speed, saturation))
+    tracked, total = _tracked_motion(a.position, b.position, a.valid, b.valid)
+    if not tracked:
+        return now.slip
+    return max(0.0, now.slip - gain * now.obj.area * min(total / tracked, saturation))
+
+
+def warm_up() -> None:
+    """Load the compiled marker motion now (skills that use it call this when set up; see
+    `perception.wrench.warm_up`)."""
+    position, valid = np.zeros((1, 2)), np.ones(1, bool)
+    _tracked_motion(position, position, valid, valid)
+
+
+@njit(cache=True, nogil=True)
+def _tracked_motion(position, before, valid, was_valid):  # pragma: no cover - compiled
+    """(markers tracked in both states, the sum of their distances moved), summed in numpy's order
+    over the tracked ones: a load scan asks twice a tick, and numpy's eight small-array calls cost
+    several times the loop."""
+    distances = np.empty(len(valid))
+    tracked = 0
+    for i in range(len(valid)):
+        if valid[i] and was_valid[i]:
+            dx, dy = position[i, 0] - before[i, 0], position[i, 1] - before[i, 1]
+            distances[tracked] = math.sqrt(dx * dx + dy * dy)
+            tracked += 1
+    return tracked, pairwise_sum(distances, 0, tracked)
 
 
 class SteadyAngle:

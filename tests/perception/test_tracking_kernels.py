@@ -7,14 +7,14 @@ from conftest import Scene
 
 from drivers.sim.models import fingervision_model, pipeline_errors
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
-from perception import tracking_kernels, wrench
+from perception import sums, tracking_kernels, wrench
 from perception.marker_tracking import LocalFit, neighbour_index
 from perception.state import MarkerField
 from perception.wrench import marker_forces, marker_levers
 
 KERNELS = [tracking_kernels.measure_windows, tracking_kernels.predict_local, tracking_kernels.near_trusted,
            tracking_kernels.kalman_step, tracking_kernels.moving_hoods, wrench._mean_wrench,
-           fingervision_model._field, pipeline_errors.observe, pipeline_errors._pairwise_sum]
+           fingervision_model._field, pipeline_errors.observe, sums.pairwise_sum]
 
 
 def signatures() -> list[int]:
@@ -72,7 +72,7 @@ def test_the_compiled_sum_adds_in_numpys_order():
     rng = np.random.default_rng(3)
     for n in (1, 7, 8, 9, 70, 128, 129, 300, 1000, 5000):
         values = rng.random(n) * rng.choice([1.0, 1e-3, 1e5], n)
-        assert pipeline_errors._pairwise_sum(values, 0, n) == np.add.reduce(values)
+        assert sums.pairwise_sum(values, 0, n) == np.add.reduce(values)
 
 
 def test_the_error_models_marker_step_is_the_numpy_one():
