@@ -48,12 +48,16 @@ def test_assembly_on_the_emulated_cell_matches_the_simulated_cell(emulated_cell,
         want = simulated["elements"][eid]
         assert got["status"] == want["status"] == "placed"
         assert got["plate"] == want["plate"]
-        # the same point of maximum load, within the search's own scatter under 2 % load noise and
-        # the coarser sampling of a busy machine (late ticks of the wall clock cover more travel)
-        assert abs(got["position"] - want["position"]) < POSITION_TOLERANCE, eid
-        assert abs(got["position"] - got["true_best_position"]) < POSITION_TOLERANCE, eid
-        assert got["regret"] < 0.005, eid
-        assert np.allclose(got["asbuilt_pose"], want["asbuilt_pose"], atol=POSITION_TOLERANCE + 0.002), eid
+        # The point of maximum load, within the search's own scatter of the true one (2 % load noise
+        # and, on the emulated cell, the coarser sampling of a busy machine: late ticks of the wall
+        # clock cover more travel). The two cells' placements are two draws of that scatter (the
+        # simulated E2 lands 10 mm from the truth on the plate's flat top, 0.06 % regret), so they
+        # may lie up to twice it apart.
+        placed = f"{eid}: emulated {got['position']:.4f} m, simulated {want['position']:.4f} m, best {got['true_best_position']:.4f} m"
+        assert abs(got["position"] - got["true_best_position"]) < POSITION_TOLERANCE, placed
+        assert got["regret"] < 0.005, placed
+        assert abs(got["position"] - want["position"]) < 2 * POSITION_TOLERANCE, placed
+        assert np.allclose(got["asbuilt_pose"], want["asbuilt_pose"], atol=2 * POSITION_TOLERANCE + 0.002), eid
     # cell time is comparable: the emulated controller ramps its speed, the kinematic arm does not
     assert 0.9 < emulated["sim_time_s"] / simulated["sim_time_s"] < 1.2
 
