@@ -394,8 +394,7 @@ class AssemblyScene(Scene):
         for side in (-1.0, 1.0):
             gap = max(0.0, half_width - side * offset - e.width / 2.0)
             area = 0.35 * overlap / (2.0 * r) / (1.0 + gap / 0.01)
-            # the area stays the numpy float it always was: run digests hash its repr
-            views.append(ObjectInfo(True, np.float64(area), np.array([side * centre, 0.0]), 0.0))
+            views.append(ObjectInfo(True, area, np.array([side * centre, 0.0]), 0.0))
         return views[0], views[1]
 
     def contacts(self) -> dict[str, FingerContact]:
