@@ -94,12 +94,12 @@ def _valid(markers: MarkerField) -> np.ndarray:
     return np.ascontiguousarray(markers.valid, bool)
 
 
-_TERMS = np.array([0, 2, 1, 2, 0, 2, 1])  # columns of [dx, dy, normal] in each term of `_terms`
+_TERMS = np.array([0, 2, 1, 2, 0, 2, 1])  # columns of [dx, dy, normal] in each term of `wrench_terms`
 _CACHE_SIZE = 16  # marker maps whose terms are kept (two fingers, a few maps over a run)
 _cache: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
 
 
-def _terms(markers: MarkerField, finger: str) -> np.ndarray:
+def wrench_terms(markers: MarkerField, finger: str) -> np.ndarray:
     """(N, 7) factors of [dx, normal, dy, normal, dx, normal, dy] per marker: the three force
     components and the torque terms -p1 f1, p1 f0, p0 f1, -p0 f2 (f = signed force, p = lever),
     with the signs folded in (exact: they are +-1). Kept per marker origin array and finger: an
@@ -135,10 +135,10 @@ def wrench(
     """Averaged (force, torque) over the valid markers, times the calibration scales (1 = pixels);
     zeros when no marker is valid."""
     valid = _valid(markers)
-    terms = _terms(markers, finger)
+    terms = wrench_terms(markers, finger)
     if averaging == "mean" and mode == "xy_norm":
-        force, torque = _mean_wrench(np.ascontiguousarray(markers.position, float),
-                                     np.ascontiguousarray(markers.origin, float), terms, valid)
+        force, torque = mean_wrench(np.ascontiguousarray(markers.position, float),
+                                    np.ascontiguousarray(markers.origin, float), terms, valid)
         return _scaled(force, force_scale), _scaled(torque, torque_scale)
     count = int(np.count_nonzero(valid))
     if count == 0:
@@ -171,7 +171,7 @@ def _scaled(values: np.ndarray, scale: np.ndarray | float) -> np.ndarray:
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _mean_wrench(position, origin, terms, valid):  # pragma: no cover - compiled
+def mean_wrench(position, origin, terms, valid):  # pragma: no cover - compiled
     """(force, torque): the mean over the valid markers of the seven products of [dx, normal, dy,
     normal, dx, normal, dy] (normal = |(dx, dy)|) with `terms`, summed marker by marker in one pass
     (the seventh added to the fifth: torque about the finger normal); zeros when none is valid. It

@@ -103,8 +103,10 @@ def test_signals_mode_markers_jitter_and_drop_out_as_the_pipeline_measured():
 
 def test_the_error_model_lags_markers_as_a_first_order_filter():
     from drivers.sim.models.pipeline_errors import ErrorModel, PipelineErrors
+    from perception.state import MarkerField
 
-    model = ErrorModel(PipelineErrors(lag_alpha=0.4, noise_px=0.0, lossy_share=0.0), np.random.default_rng(0))
+    model = ErrorModel(PipelineErrors(lag_alpha=0.4, noise_px=0.0, lossy_share=0.0), np.random.default_rng(0),
+                       MarkerField(np.zeros((3, 2))), "left")
     rest, moved = np.full((3, 3), 9.0), np.full((3, 3), 9.0)  # x, y, size per marker
     rest[:, :2], moved[:, :2] = 0.0, 2.0
     model.apply(_held(), rest)

@@ -13,7 +13,7 @@ from perception.state import MarkerField
 from perception.wrench import marker_forces, marker_levers
 
 KERNELS = [tracking_kernels.measure_windows, tracking_kernels.predict_local, tracking_kernels.near_trusted,
-           tracking_kernels.kalman_step, tracking_kernels.moving_hoods, wrench._mean_wrench,
+           tracking_kernels.kalman_step, tracking_kernels.moving_hoods, wrench.mean_wrench,
            fingervision_model._field, pipeline_errors.observe, sums.pairwise_sum]
 
 
@@ -78,11 +78,17 @@ def test_the_compiled_sum_adds_in_numpys_order():
 def test_the_error_models_marker_step_is_the_numpy_one():
     rng = np.random.default_rng(4)
     exact, prev, estimate = rng.random((37, 3)), rng.random((37, 3)), rng.random((37, 3))
-    lost, noise = rng.random(37) < 0.2, rng.normal(0, 0.04, (37, 3))
+    tracked, noise = rng.random(37) >= 0.2, rng.normal(0, 0.04, (37, 3))
+    markers = MarkerField(rng.uniform(20, 300, (37, 2)), image_size=(320, 240))
+    terms = wrench.wrench_terms(markers, "right")
     for alpha in (1.0, 0.4):
         step = estimate.copy()
-        position, size, moved = pipeline_errors.observe(exact, prev, step, lost, noise, alpha)
-        kept = np.where(lost[:, None], estimate, estimate + alpha * (exact - estimate) if alpha < 1.0 else exact)
+        position, size, moved, force, torque = pipeline_errors.observe(exact, prev, step, tracked, noise, alpha,
+                                                                       markers.origin, terms)
+        kept = np.where(tracked[:, None], estimate + alpha * (exact - estimate) if alpha < 1.0 else exact, estimate)
         assert np.array_equal(step, kept)
         assert np.array_equal(position, kept[:, :2] + noise[:, :2]) and np.array_equal(size, kept[:, 2] + noise[:, 2])
         assert moved == np.add.reduce(np.abs(exact[:, :2] - prev[:, :2]), axis=None) / 74
+        reported = MarkerField(markers.origin, position, valid=tracked, image_size=(320, 240))
+        expected = wrench.wrench(reported, "right")
+        assert np.array_equal(force, expected[0]) and np.array_equal(torque, expected[1])

@@ -102,14 +102,15 @@ class SensorModel:
     def state(self, contact: FingerContact, stamp: float) -> TactileState:
         """Render one `TactileState` from the loads on this fingertip."""
         exact, position, size = self._exact(contact)
-        obj, slip, valid = contact.obj, contact.slip, self._valid
-        if self.pipeline_errors:
-            position, size, valid, obj, slip = self._error_model().apply(contact, exact)
+        obj, slip, valid, force = contact.obj, contact.slip, self._valid, None
+        if self.pipeline_errors:  # the error model also gives the wrench of the default estimator (xy_norm)
+            position, size, valid, force, torque, obj, slip = self._error_model().apply(contact, exact)
         elif self.noise_px:
             noisy = exact + self._rng.standard_normal(exact.shape) * self._noise_scale
             position, size = noisy[:, :2], noisy[:, 2]
         markers = MarkerField(self.origin, position, self._origin_size, size, valid, self.image_size)
-        force, torque = wrench(markers, self.finger, self.normal_mode)
+        if force is None or self.normal_mode != "xy_norm":
+            force, torque = wrench(markers, self.finger, self.normal_mode)
         return TactileState(self.finger, stamp, markers, force, torque, obj, slip)
 
     def _exact(self, contact: FingerContact) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -133,7 +134,9 @@ class SensorModel:
 
     def _error_model(self) -> ErrorModel:
         if self._errors is None:
-            self._errors = ErrorModel(PipelineErrors(), self._rng)
+            markers = MarkerField(self.origin, self.origin, self._origin_size, self._origin_size, self._valid,
+                                  self.image_size)
+            self._errors = ErrorModel(PipelineErrors(), self._rng, markers, self.finger)
         return self._errors
 
 

@@ -28,8 +28,9 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from numba import njit
 
-from perception.state import ObjectInfo
+from perception.state import MarkerField, ObjectInfo
 from perception.sums import pairwise_sum
+from perception.wrench import mean_wrench, wrench_terms
 
 IMAGE_SCALE = 280.0  # px per unit of normalised centroid ((W + H) / 2 of the 320x240 image)
 IMAGE_PIXELS = 320 * 240
@@ -92,10 +93,14 @@ BLOCK = 256  # ticks of random numbers drawn at once: one generator call per blo
 
 
 class ErrorModel:
-    """The error model of one sensor, with its state (last estimates, last truth, delayed slip)."""
+    """The error model of one sensor, with its state (last estimates, last truth, delayed slip).
 
-    def __init__(self, errors: PipelineErrors, rng: np.random.Generator):
+    `markers`: the sensor's marker map (origins, image size) and `finger`, for the wrench the
+    pipeline's estimator makes of the reported markers (`perception.wrench`, mean, xy_norm)."""
+
+    def __init__(self, errors: PipelineErrors, rng: np.random.Generator, markers: MarkerField, finger: str):
         self.e, self._rng = errors, rng
+        self._origin, self._terms = markers.origin, wrench_terms(markers, finger)
         self._estimate: np.ndarray | None = None  # (N, 3) x, y, size the tracker holds, noise-free
         self._truth: np.ndarray | None = None
         self._contact = None
@@ -103,8 +108,9 @@ class ErrorModel:
         self._tick = BLOCK
 
     def apply(self, contact, exact: np.ndarray):
-        """(positions, sizes, valid, object, slip) the pipeline would report for this contact and the
-        exact (N, 3) x, y and size of its markers (never changed here: an unloaded fingertip's is shared)."""
+        """(positions, sizes, valid, force, torque, object, slip) the pipeline would report for this
+        contact and the exact (N, 3) x, y and size of its markers (never changed here: an unloaded
+        fingertip's is shared)."""
         if self._estimate is None:
             self._start(exact)
         if self._tick == BLOCK:
@@ -112,12 +118,13 @@ class ErrorModel:
         t = self._tick
         self._tick += 1
         first, same = self._truth is None, exact is self._truth
-        position, size, moved = observe(exact, self._truth if not (first or same) else exact, self._estimate,
-                                        self._lost[t], self._noise[t], self.e.lag_alpha)
-        valid = self._tracked[t] if self._any_lost[t] else self._all
+        valid = self._tracked[t]
+        position, size, moved, force, torque = observe(
+            exact, self._truth if not (first or same) else exact, self._estimate, valid, self._noise[t],
+            self.e.lag_alpha, self._origin, self._terms)
         obj, slip = self._view(contact, None if first else moved, self._scalars[t], self._centroid[t])
         self._truth = exact
-        return position, size, valid, obj, slip
+        return position, size, valid if self._any_lost[t] else self._all, force, torque, obj, slip
 
     def _start(self, exact: np.ndarray) -> None:
         n = len(exact)
@@ -132,9 +139,9 @@ class ErrorModel:
         uniform = self._rng.random((BLOCK, k + 2))
         self._noise = e.noise_px * normal[:, :3 * n].reshape(BLOCK, n, 3)  # x, y, size (half as much)
         self._noise[:, :, 2] *= 0.5
-        self._lost = np.zeros((BLOCK, n), bool)
-        self._lost[:, self._lossy] = uniform[:, :k] < e.lossy_rate
-        self._tracked, self._any_lost = ~self._lost, self._lost.any(axis=1).tolist()
+        lost = np.zeros((BLOCK, n), bool)
+        lost[:, self._lossy] = uniform[:, :k] < e.lossy_rate
+        self._tracked, self._any_lost = ~lost, lost.any(axis=1).tolist()
         z = normal[:, 3 * n:]
         self._centroid = z[:, 2:4] * (e.centroid_px / math.sqrt(2.0) / IMAGE_SCALE)
         # per tick: slip noise, area noise, angle noise, slip floor (Exp(1)), miss draw
@@ -165,20 +172,22 @@ class ErrorModel:
 def warm_up() -> None:
     """Load the compiled `observe` now (see `perception.wrench.warm_up`)."""
     exact = np.zeros((1, 3))
-    observe(exact, exact, exact.copy(), np.zeros(1, bool), exact, 1.0)
+    markers = MarkerField(np.zeros((1, 2)))
+    observe(exact, exact, exact.copy(), np.ones(1, bool), exact, 1.0, markers.origin, wrench_terms(markers, "left"))
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def observe(exact, prev, estimate, lost, noise, alpha):  # pragma: no cover - compiled
+def observe(exact, prev, estimate, tracked, noise, alpha, origin, terms):  # pragma: no cover - compiled
     """One tick of the marker errors, in one pass: the tracker's `estimate` (N, 3, updated in place)
-    follows `exact` with the first-order lag `alpha` except where `lost`; returns the reported
-    ((N, 2) positions, (N,) sizes) with `noise` (N, 3) added, and the mean |motion| of the exact
-    positions since `prev` (summed in numpy's pairwise order, as `image_motion` sums them)."""
+    follows `exact` with the first-order lag `alpha` where `tracked`; returns the reported ((N, 2)
+    positions, (N,) sizes) with `noise` (N, 3) added, the mean |motion| of the exact positions since
+    `prev` (summed in numpy's pairwise order, as `image_motion` sums them), and the (force, torque)
+    the wrench estimator makes of the tracked markers (`origin`, `terms`: `perception.wrench`)."""
     n = len(exact)
     position = np.empty((n, 2))
     size = np.empty(n)
     for i in range(n):
-        if not lost[i]:
+        if tracked[i]:
             for j in range(3):
                 estimate[i, j] = exact[i, j] if alpha >= 1.0 else estimate[i, j] + alpha * (exact[i, j] - estimate[i, j])
         position[i, 0] = estimate[i, 0] + noise[i, 0]
@@ -188,4 +197,5 @@ def observe(exact, prev, estimate, lost, noise, alpha):  # pragma: no cover - co
     for i in range(n):
         moved[2 * i] = abs(exact[i, 0] - prev[i, 0])
         moved[2 * i + 1] = abs(exact[i, 1] - prev[i, 1])
-    return position, size, pairwise_sum(moved, 0, 2 * n) / (2 * n)
+    force, torque = mean_wrench(position, origin, terms, tracked)
+    return position, size, pairwise_sum(moved, 0, 2 * n) / (2 * n), force, torque
