@@ -7,7 +7,7 @@ object centroid normalised by the image size ((W + H) / 2), orientation in radia
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -18,16 +18,34 @@ def _empty(shape: tuple[int, ...], dtype=float) -> np.ndarray:
     return np.zeros(shape, dtype=dtype)
 
 
-@dataclass(frozen=True)
-class MarkerField:
-    """Tracked markers of one sensor: calibrated origin, current position and size, validity."""
+# These records are frozen: a state handed out (to the skills, the recorder's batch) never changes.
+# Each one is made for every finger on every tick, and a frozen dataclass's own __init__ sets its
+# fields one by one through object.__setattr__ (~0.3 us a field, about five times a plain class's
+# cost), so each writes its own __init__ that fills the instance's dict in one update.
 
-    origin: np.ndarray = field(default_factory=lambda: _empty((0, 2)))  # (N, 2) px
-    position: np.ndarray = field(default_factory=lambda: _empty((0, 2)))  # (N, 2) px
-    origin_size: np.ndarray = field(default_factory=lambda: _empty((0,)))  # (N,) px diameter
-    size: np.ndarray = field(default_factory=lambda: _empty((0,)))  # (N,) px diameter
-    valid: np.ndarray = field(default_factory=lambda: _empty((0,), bool))  # (N,) tracked this frame
-    image_size: tuple[int, int] = (320, 240)  # (W, H) of the sensor image
+
+@dataclass(frozen=True, init=False)
+class MarkerField:
+    """Tracked markers of one sensor: calibrated origin (N, 2) px, current position (N, 2) px and
+    size (N,) px diameter, calibrated size, validity (N,) (tracked this frame), image (W, H)."""
+
+    origin: np.ndarray
+    position: np.ndarray
+    origin_size: np.ndarray
+    size: np.ndarray
+    valid: np.ndarray
+    image_size: tuple[int, int]
+
+    def __init__(self, origin: np.ndarray | None = None, position: np.ndarray | None = None,
+                 origin_size: np.ndarray | None = None, size: np.ndarray | None = None,
+                 valid: np.ndarray | None = None, image_size: tuple[int, int] = (320, 240)):
+        self.__dict__.update(
+            origin=_empty((0, 2)) if origin is None else origin,
+            position=_empty((0, 2)) if position is None else position,
+            origin_size=_empty((0,)) if origin_size is None else origin_size,
+            size=_empty((0,)) if size is None else size,
+            valid=_empty((0,), bool) if valid is None else valid,
+            image_size=image_size)
 
     @property
     def displacement(self) -> np.ndarray:
@@ -43,29 +61,47 @@ class MarkerField:
         return len(self.origin)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class ObjectInfo:
-    """Proximity-vision summary of the object seen through the skin."""
+    """Proximity-vision summary of the object seen through the skin: present, area (fraction of the
+    image the object mask covers, 0..1), centroid (normalised image coordinates), orientation (rad,
+    principal axis of the mask), cells (object fill per 3x3 cell, 0..1), motion_cells (moving share)."""
 
-    present: bool = False
-    area: float = 0.0  # fraction of the image covered by the object mask, 0..1
-    centroid: np.ndarray = field(default_factory=lambda: _empty((2,)))  # normalised image coords
-    orientation: float = 0.0  # rad, principal axis of the object mask
-    cells: np.ndarray = field(default_factory=lambda: _empty((3, 3)))  # object fill per 3x3 cell, 0..1
-    motion_cells: np.ndarray = field(default_factory=lambda: _empty((3, 3)))  # moving object share
+    present: bool
+    area: float
+    centroid: np.ndarray
+    orientation: float
+    cells: np.ndarray
+    motion_cells: np.ndarray
+
+    def __init__(self, present: bool = False, area: float = 0.0, centroid: np.ndarray | None = None,
+                 orientation: float = 0.0, cells: np.ndarray | None = None, motion_cells: np.ndarray | None = None):
+        self.__dict__.update(
+            present=present, area=area, centroid=_empty((2,)) if centroid is None else centroid,
+            orientation=orientation, cells=_empty((3, 3)) if cells is None else cells,
+            motion_cells=_empty((3, 3)) if motion_cells is None else motion_cells)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class TactileState:
-    """Everything one FingerVision sensor reports for one frame."""
+    """Everything one FingerVision sensor reports for one frame: stamp (seconds on the cell clock),
+    markers, force [shear x, normal, shear z] and torque, object, slip (moving object pixels, share
+    of the image: the original mv_s scale), health and its reason."""
 
     finger: str
-    stamp: float  # seconds on the cell clock
-    markers: MarkerField = field(default_factory=MarkerField)
-    force: np.ndarray = field(default_factory=lambda: _empty((3,)))  # [shear x, normal, shear z]
-    torque: np.ndarray = field(default_factory=lambda: _empty((3,)))
-    obj: ObjectInfo = field(default_factory=ObjectInfo)
-    slip: float = 0.0  # moving object pixels, share of the image (original mv_s scale)
-    healthy: bool = True
-    health_reason: str = ""
+    stamp: float
+    markers: MarkerField
+    force: np.ndarray
+    torque: np.ndarray
+    obj: ObjectInfo
+    slip: float
+    healthy: bool
+    health_reason: str
 
+    def __init__(self, finger: str, stamp: float, markers: MarkerField | None = None,
+                 force: np.ndarray | None = None, torque: np.ndarray | None = None, obj: ObjectInfo | None = None,
+                 slip: float = 0.0, healthy: bool = True, health_reason: str = ""):
+        self.__dict__.update(
+            finger=finger, stamp=stamp, markers=MarkerField() if markers is None else markers,
+            force=_empty((3,)) if force is None else force, torque=_empty((3,)) if torque is None else torque,
+            obj=ObjectInfo() if obj is None else obj, slip=slip, healthy=healthy, health_reason=health_reason)
