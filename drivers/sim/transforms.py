@@ -46,15 +46,22 @@ def _rotvec(rows: list[list[float]]) -> list[float]:
     if angle < 1e-9:
         return [0.0, 0.0, 0.0]
     if math.pi - angle < 1e-6:
-        # Near a half turn the axis comes from the diagonal of (R + I) / 2.
-        m = np.array(rows)[:3, :3]
-        axis = np.sqrt(np.maximum((np.diag(m) + 1.0) / 2.0, 0.0))
-        i = int(np.argmax(axis))
-        axis[(i + 1) % 3] = math.copysign(axis[(i + 1) % 3], m[i, (i + 1) % 3] + m[(i + 1) % 3, i])
-        axis[(i + 2) % 3] = math.copysign(axis[(i + 2) % 3], m[i, (i + 2) % 3] + m[(i + 2) % 3, i])
-        return (axis / np.linalg.norm(axis) * angle).tolist()
+        return _half_turn_rotvec(rows, angle)
     k = angle / (2.0 * math.sin(angle))
     return [(m21 - m12) * k, (m02 - m20) * k, (m10 - m01) * k]
+
+
+def _half_turn_rotvec(rows: list[list[float]], angle: float) -> list[float]:
+    """`_rotvec` near a half turn (`angle` about pi), where the axis comes from the diagonal of
+    (R + I) / 2: the signs of the two smaller entries from the off-diagonal sums of the largest
+    one's row and column. On Python floats in numpy's order of operations (its 3-vector norm sums
+    (x x + y y) + z z), as a held element turned upside down by the tool asks for it every tick."""
+    axis = [math.sqrt(max((rows[j][j] + 1.0) / 2.0, 0.0)) for j in range(3)]
+    i = axis.index(max(axis))  # the first largest, as numpy's argmax
+    for j in ((i + 1) % 3, (i + 2) % 3):
+        axis[j] = math.copysign(axis[j], rows[i][j] + rows[j][i])
+    norm = math.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2])
+    return [a / norm * angle for a in axis]
 
 
 def homogeneous(pose) -> np.ndarray:
