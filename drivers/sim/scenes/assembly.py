@@ -17,6 +17,7 @@ shortfall in the truth's verdict.
 from __future__ import annotations
 
 import math
+import struct
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -38,6 +39,8 @@ STRAY_LOAD_N = 1.0  # load from a plate an element does not prop that counts as 
 ROUNDING_MARGIN = 1e-9  # m, far beyond the rounding of distances of a few metres
 Point = tuple[float, float, float]
 NO_FORCE: Point = (0.0, 0.0, 0.0)
+SIDES = (-1.0, 1.0)  # tool-y sides of the left and right fingertips
+_VIEW_KEY = struct.Struct("3d")  # the numbers a pair of fingertip views is made from, as bytes
 
 
 @dataclass(eq=False, slots=True)  # not frozen: a frozen dataclass takes 3x as long to make
@@ -189,6 +192,7 @@ class AssemblyScene(Scene):
         self._force_key: tuple = ()  # (element, state, pose, contact) of the last external force
         self._force_value = NO_FORCE
         self._bearing: tuple[Frame | None, Plate | None, float] = (None, None, 0.0)  # see _plate_on
+        self._seen_key, self._seen_views = b"", (ObjectInfo(), ObjectInfo())  # see _seen
         self.collisions: list[str] = []  # "E2 hit E1 at t s", in order
         self.plate_pushes: dict[tuple[str, str], list[float]] = {}  # (element, plate) -> [first t, most N]
         self._t = 0.0
@@ -390,12 +394,20 @@ class AssemblyScene(Scene):
         offset = t01 * (c[0] - x) + t11 * (c[1] - y) + t21 * (c[2] - z)  # element centre, tool y
         half_width = self.gripper.width() / 2.0
         centre = ((lo + hi) / 2.0 - local[0]) / (2.0 * r)  # -0.5 .. 0.5 of the image width
-        views = []
-        for side in (-1.0, 1.0):
-            gap = max(0.0, half_width - side * offset - e.width / 2.0)
-            area = 0.35 * overlap / (2.0 * r) / (1.0 + gap / 0.01)
-            views.append(ObjectInfo(True, area, np.array([side * centre, 0.0]), 0.0))
-        return views[0], views[1]
+        areas = [0.35 * overlap / (2.0 * r) / (1.0 + max(0.0, half_width - side * offset - e.width / 2.0) / 0.01)
+                 for side in SIDES]
+        return self._seen(centre, areas)
+
+    def _seen(self, centre: float, areas: list[float]) -> tuple[ObjectInfo, ObjectInfo]:
+        """The fingertip views (left, right) of an element seen at `centre` of the image width (the
+        left one mirrored) with these `areas`; made again only when one of the three numbers changes
+        (compared as their bytes, so that 0.0 and -0.0 differ), as they stay the same while an
+        element is held."""
+        key = _VIEW_KEY.pack(centre, *areas)
+        if key != self._seen_key:
+            left, right = (ObjectInfo(True, area, np.array([side * centre, 0.0]), 0.0) for side, area in zip(SIDES, areas))
+            self._seen_key, self._seen_views = key, (left, right)
+        return self._seen_views
 
     def contacts(self) -> dict[str, FingerContact]:
         """Loads and views on the two fingertips for the current state."""
