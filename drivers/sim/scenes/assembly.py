@@ -150,15 +150,15 @@ class Plate:
     """A plate strip spanning along +x from `origin` (left support) at height `origin[2]`."""
 
     id: str
-    origin: np.ndarray  # left support [x, y, z_soffit]
+    origin: Point  # left support (x, y, z_soffit), on Python floats: a held element asks about it every tick
     width: float  # extent across (y)
     beam: BeamPlate
 
-    def position_along(self, p: np.ndarray) -> float | None:
+    def position_along(self, p: Point) -> float | None:
         """Distance a from the left support if p lies under the plate footprint, else None."""
         a = p[0] - self.origin[0]
         if 0.0 <= a <= self.beam.span and abs(p[1] - self.origin[1]) <= self.width / 2.0:
-            return float(a)
+            return a
         return None
 
 
@@ -332,8 +332,7 @@ class AssemblyScene(Scene):
         if self._bearing[0] is not frame:
             top = frame.ends[1]
             plate = self.plate_above(top) if e.is_upright() else None
-            load = 0.0 if plate is None else float(
-                plate.beam.carried_force(plate.position_along(top), plate.origin[2] - top[2]))
+            load = 0.0 if plate is None else plate.beam.carried_force(plate.position_along(top), plate.origin[2] - top[2])
             self._bearing = (frame, plate, load)
         return self._bearing[1], self._bearing[2]
 
@@ -505,7 +504,7 @@ def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: i
     plates = {}
     for spec in args.get("plates", []):
         beam = BeamPlate(span=spec["span"], **loads.get(spec["id"], {}))
-        plates[spec["id"]] = Plate(spec["id"], np.array(spec["origin"], float),
+        plates[spec["id"]] = Plate(spec["id"], tuple(map(float, spec["origin"])),
                                    spec.get("width", 0.3), beam)
     config = SceneConfig(seed=seed, **world)
     return AssemblyScene(arm, gripper, elements, plates, config)
