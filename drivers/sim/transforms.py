@@ -88,6 +88,12 @@ def rigid_inverse(t: np.ndarray) -> np.ndarray:
                      0.0, 0.0, 0.0, 1.0]).reshape(4, 4)
 
 
+def compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The product a @ b of two 4x4 transforms: `ndarray.dot` makes the same BLAS call as the @
+    operator (so the same bits) for well under half of its dispatch cost."""
+    return a.dot(b)
+
+
 def pose_of(t: np.ndarray) -> np.ndarray:
     """The pose [x, y, z, rx, ry, rz] of a 4x4 transform."""
     rows = t.tolist()

@@ -30,7 +30,7 @@ from drivers.sim.models.fingervision_model import FingerContact
 from drivers.sim.models.plate import BeamPlate
 from drivers.sim.scenes.base import Scene
 from drivers.sim.scenes.scene_file import plate_loads, scene_file_of
-from drivers.sim.transforms import homogeneous, inverse_entries, pose_of, rigid_inverse, rotation_entries
+from drivers.sim.transforms import compose, homogeneous, inverse_entries, pose_of, rigid_inverse, rotation_entries
 from perception.state import ObjectInfo
 
 GRAVITY = 9.81
@@ -237,12 +237,12 @@ class AssemblyScene(Scene):
         self.gripper.step(dt)
         if e is not None and e.state != "held" and self.gripper.squeeze_force() > 0.0:
             e.state = "held"
-            e.grasp = rigid_inverse(tool) @ homogeneous(e.pose)
+            e.grasp = compose(rigid_inverse(tool), homogeneous(e.pose))
         held = self.held()
         if held is not None and self.gripper.squeeze_force() <= 0.0:
             self._release(held)
         elif held is not None:
-            self._carry(held, pose_of(tool @ held.grasp))
+            self._carry(held, pose_of(compose(tool, held.grasp)))
             if any(self._contact):
                 self._slip = 0.3  # the hand drags the held-back element over the pads
             else:
@@ -381,7 +381,7 @@ class AssemblyScene(Scene):
             return
         shift = np.sign(along) * min(0.05, excess / max(grip, 1e-6) * 0.02) * dt
         e.pose[:3] += np.array([r[0], r[3], r[6]]) * shift
-        e.grasp = rigid_inverse(tool) @ homogeneous(e.pose)
+        e.grasp = compose(rigid_inverse(tool), homogeneous(e.pose))
         self._slip = min(1.0, 50.0 * abs(shift) / dt * 0.1)
         if abs(e.grasp[0, 3]) + abs(e.grasp[1, 3]) + abs(e.grasp[2, 3]) > e.length / 2.0:
             self._release(e)
