@@ -8,15 +8,32 @@ and each result is made with one array call.
 from __future__ import annotations
 
 import math
+import struct
 
 import numpy as np
 
 IDENTITY = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+ROTATIONS_KEPT = 64  # rotations `rotation_entries` keeps; it forgets them all when it has this many
+_ROTATIONS: dict[bytes, tuple[float, ...]] = {}  # a rotation vector's bytes -> its rotation's entries
+_VECTOR = struct.Struct("3d")
 
 
 def rotation_entries(r) -> tuple[float, ...]:
-    """The 9 entries (row by row) of the rotation by rotation vector `r` (Rodrigues' formula)."""
+    """The 9 entries (row by row) of the rotation by rotation vector `r` (Rodrigues' formula), kept for
+    the last few dozen rotation vectors (compared as their bytes): the arm and the element it holds
+    mostly move without turning, so most ticks ask again for a rotation worked out before."""
     x, y, z = r.tolist() if isinstance(r, np.ndarray) else map(float, r)
+    key = _VECTOR.pack(x, y, z)
+    entries = _ROTATIONS.get(key)
+    if entries is None:
+        if len(_ROTATIONS) >= ROTATIONS_KEPT:
+            _ROTATIONS.clear()
+        entries = _ROTATIONS[key] = _rodrigues(x, y, z)
+    return entries
+
+
+def _rodrigues(x: float, y: float, z: float) -> tuple[float, ...]:
+    """The 9 entries (row by row) of the rotation by the rotation vector (x, y, z)."""
     angle = math.sqrt(x * x + y * y + z * z)
     if angle < 1e-12:
         return IDENTITY
