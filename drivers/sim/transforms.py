@@ -7,33 +7,29 @@ and each result is made with one array call.
 
 from __future__ import annotations
 
+import functools
 import math
 import struct
 
 import numpy as np
 
 IDENTITY = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
-ROTATIONS_KEPT = 64  # rotations `rotation_entries` keeps; it forgets them all when it has this many
-_ROTATIONS: dict[bytes, tuple[float, ...]] = {}  # a rotation vector's bytes -> its rotation's entries
-_VECTOR = struct.Struct("3d")
+KEPT = 64  # rotations each of `rotation_entries` and `_rotvec` keeps (the ones asked about last)
+_VECTOR, _MATRIX = struct.Struct("3d"), struct.Struct("9d")  # a rotation vector, a rotation's entries
 
 
 def rotation_entries(r) -> tuple[float, ...]:
-    """The 9 entries (row by row) of the rotation by rotation vector `r` (Rodrigues' formula), kept for
-    the last few dozen rotation vectors (compared as their bytes): the arm and the element it holds
-    mostly move without turning, so most ticks ask again for a rotation worked out before."""
+    """The 9 entries (row by row) of the rotation by rotation vector `r` (Rodrigues' formula)."""
     x, y, z = r.tolist() if isinstance(r, np.ndarray) else map(float, r)
-    key = _VECTOR.pack(x, y, z)
-    entries = _ROTATIONS.get(key)
-    if entries is None:
-        if len(_ROTATIONS) >= ROTATIONS_KEPT:
-            _ROTATIONS.clear()
-        entries = _ROTATIONS[key] = _rodrigues(x, y, z)
-    return entries
+    return _rotation(_VECTOR.pack(x, y, z))
 
 
-def _rodrigues(x: float, y: float, z: float) -> tuple[float, ...]:
-    """The 9 entries (row by row) of the rotation by the rotation vector (x, y, z)."""
+@functools.lru_cache(maxsize=KEPT)
+def _rotation(vector: bytes) -> tuple[float, ...]:
+    """`rotation_entries` of the rotation vector packed in `vector`, kept for the last few dozen
+    vectors (compared as their bytes): the arm and the element it holds mostly move without
+    turning, so most ticks ask again for a rotation worked out before."""
+    x, y, z = _VECTOR.unpack(vector)
     angle = math.sqrt(x * x + y * y + z * z)
     if angle < 1e-12:
         return IDENTITY
@@ -55,30 +51,39 @@ def matrix_to_rotvec(m: np.ndarray) -> np.ndarray:
     return np.array(_rotvec(m.tolist()))
 
 
-def _rotvec(rows: list[list[float]]) -> list[float]:
+def _rotvec(rows: list[list[float]]) -> tuple[float, float, float]:
     """`matrix_to_rotvec` of the top-left 3x3 block of a matrix given by its rows."""
-    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = (row[:3] for row in rows[:3])
+    (m00, m01, m02, *_), (m10, m11, m12, *_), (m20, m21, m22, *_) = rows[:3]
+    return _rotvec_of(_MATRIX.pack(m00, m01, m02, m10, m11, m12, m20, m21, m22))
+
+
+@functools.lru_cache(maxsize=KEPT)
+def _rotvec_of(entries: bytes) -> tuple[float, float, float]:
+    """`_rotvec` of the rotation whose entries (row by row) are packed in `entries`, kept for the last
+    few dozen rotations (compared as their bytes), as a held element keeps its turn for many ticks."""
+    m00, m01, m02, m10, m11, m12, m20, m21, m22 = _MATRIX.unpack(entries)
     cos = max(-1.0, min(1.0, (m00 + m11 + m22 - 1.0) / 2.0))
     angle = math.acos(cos)
     if angle < 1e-9:
-        return [0.0, 0.0, 0.0]
+        return 0.0, 0.0, 0.0
     if math.pi - angle < 1e-6:
-        return _half_turn_rotvec(rows, angle)
+        return _half_turn_rotvec(((m00, m01, m02), (m10, m11, m12), (m20, m21, m22)), angle)
     k = angle / (2.0 * math.sin(angle))
-    return [(m21 - m12) * k, (m02 - m20) * k, (m10 - m01) * k]
+    return (m21 - m12) * k, (m02 - m20) * k, (m10 - m01) * k
 
 
-def _half_turn_rotvec(rows: list[list[float]], angle: float) -> list[float]:
-    """`_rotvec` near a half turn (`angle` about pi), where the axis comes from the diagonal of
-    (R + I) / 2: the signs of the two smaller entries from the off-diagonal sums of the largest
-    one's row and column. On Python floats in numpy's order of operations (its 3-vector norm sums
-    (x x + y y) + z z), as a held element turned upside down by the tool asks for it every tick."""
+def _half_turn_rotvec(rows: tuple[tuple[float, ...], ...], angle: float) -> tuple[float, float, float]:
+    """`_rotvec` near a half turn (`angle` about pi) of the rotation R with these `rows`, where the
+    axis comes from the diagonal of (R + I) / 2: the signs of the two smaller entries from the
+    off-diagonal sums of the largest one's row and column. On Python floats in numpy's order of
+    operations (its 3-vector norm sums (x x + y y) + z z), as an element turned upside down by the
+    tool is held that way for many ticks."""
     axis = [math.sqrt(max((rows[j][j] + 1.0) / 2.0, 0.0)) for j in range(3)]
     i = axis.index(max(axis))  # the first largest, as numpy's argmax
     for j in ((i + 1) % 3, (i + 2) % 3):
         axis[j] = math.copysign(axis[j], rows[i][j] + rows[j][i])
     norm = math.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2])
-    return [a / norm * angle for a in axis]
+    return axis[0] / norm * angle, axis[1] / norm * angle, axis[2] / norm * angle
 
 
 def homogeneous(pose) -> np.ndarray:
