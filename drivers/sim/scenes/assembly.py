@@ -195,6 +195,7 @@ class AssemblyScene(Scene):
         self._force_value = NO_FORCE
         self._bearing: tuple[Frame | None, Plate | None, float] = (None, None, 0.0)  # see _plate_on
         self._seen_key, self._seen_views = b"", (ObjectInfo(), ObjectInfo())  # see _seen
+        self._untouched = {"left": FingerContact(), "right": FingerContact()}  # contacts() with nothing near
         self.collisions: list[str] = []  # "E2 hit E1 at t s", in order
         self.plate_pushes: dict[tuple[str, str], list[float]] = {}  # (element, plate) -> [first t, most N]
         self._t = 0.0
@@ -424,7 +425,7 @@ class AssemblyScene(Scene):
         """Loads and views on the two fingertips for the current state."""
         tool, e = self._tool, self._near
         if e is None:
-            return {"left": FingerContact(), "right": FingerContact()}
+            return self._untouched
         normal = self.gripper.squeeze_force()
         (t00, _, t02, x), (t10, _, t12, y), (t20, _, t22, z) = tool[:3]
         f0, f1, f2 = self._force  # the element pushes the fingers with the external load
