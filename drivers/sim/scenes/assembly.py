@@ -74,6 +74,10 @@ class Frame:
         return ((i[0] * x + i[2] * z) + (i[1] * y + i[3]), (i[4] * x + i[6] * z) + (i[5] * y + i[7]),
                 (i[8] * x + i[10] * z) + (i[9] * y + i[11]))
 
+    def is_upright(self, tol: float = 0.1) -> bool:
+        """Whether the element axis is within `tol` (of the cosine) of vertical."""
+        return abs(self.rotation[6]) > 1.0 - tol
+
 
 def _along(p: list[float], r: tuple[float, ...], s: float) -> Point:
     """The point `s` along the x axis of rotation `r` from the point `p`."""
@@ -109,7 +113,7 @@ class Element:
         return self.frame().ends
 
     def is_upright(self, tol: float = 0.1) -> bool:
-        return abs(self.frame().rotation[6]) > 1.0 - tol
+        return self.frame().is_upright(tol)
 
 
 def segment_distance(p0: Point, p1: Point, q0: Point, q1: Point) -> float:
@@ -280,13 +284,13 @@ class AssemblyScene(Scene):
         self._near = self._between_fingers(tool)
         force = NO_FORCE
         if self._near is not None and self._near.state == "held":
-            e = self._near
+            e, frame = self._near, self._near.frame()
             force = self.external_force(e)
-            plate, load = self._plate_on(e)
+            plate, load = self._plate_on(frame)
             if plate is not None:
                 self._watch_push(e, plate, load)
             if plate is not None and self.config.force_noise:
-                noise = self._normal(self._load_noise(plate, e.ends()[1]))
+                noise = self._normal(self._load_noise(plate, frame.ends[1]))
                 force = (force[0], force[1], force[2] - noise)
         self._force = force
         self.arm.external_wrench = np.array([*force, 0.0, 0.0, 0.0])
@@ -307,34 +311,35 @@ class AssemblyScene(Scene):
         """Net force (base frame, N) the ground, the plates and gravity put on a held element;
         computed once while the element, its state and the contact force stay as they are (a tick
         asks for it twice when the element does not slip)."""
-        key = (e.id, e.state, e.frame().key, self._contact)
+        frame = e.frame()
+        key = (e.id, e.state, frame.key, self._contact)
         if key != self._force_key:
-            self._force_key, self._force_value = key, self._external_force(e)
+            self._force_key, self._force_value = key, self._external_force(e, frame)
         return self._force_value
 
-    def _external_force(self, e: Element) -> Point:
-        bottom, _ = e.ends()
+    def _external_force(self, e: Element, frame: Frame) -> Point:
+        """`external_force` on element `e` in `frame`."""
+        bottom = frame.ends[0]
         f0, f1, f2 = 0.0, 0.0, -e.mass * GRAVITY
         if e.state == "held":
             f0, f1, f2 = f0 + self._contact[0], f1 + self._contact[1], f2 + self._contact[2]
         if bottom[2] < 0.0:
             f2 += self.config.ground_stiffness * -bottom[2]
-        load = self.plate_load(e)
+        load = self._plate_on(frame)[1]
         if load:
             f2 -= load
         return f0, f1, f2
 
     def plate_load(self, e: Element) -> float:
         """True load (N) the plate above puts on element `e`, noise-free."""
-        return self._plate_on(e)[1]
+        return self._plate_on(e.frame())[1]
 
-    def _plate_on(self, e: Element) -> tuple[Plate | None, float]:
-        """The plate above upright element `e` (None: none) and the true load it puts on `e` (N),
-        worked out once per pose of `e`, as a held element's tick asks for them twice."""
-        frame = e.frame()
+    def _plate_on(self, frame: Frame) -> tuple[Plate | None, float]:
+        """The plate above an upright element in `frame` (None: none) and the true load it puts on the
+        element (N), worked out once per frame, as a held element's tick asks for them twice."""
         if self._bearing[0] is not frame:
             top = frame.ends[1]
-            plate = self.plate_above(top) if e.is_upright() else None
+            plate = self.plate_above(top) if frame.is_upright() else None
             load = 0.0 if plate is None else plate.beam.carried_force(plate.position_along(top), plate.origin[2] - top[2])
             self._bearing = (frame, plate, load)
         return self._bearing[1], self._bearing[2]
