@@ -31,7 +31,7 @@ from drivers.sim.models.plate import BeamPlate
 from drivers.sim.scenes.base import Scene
 from drivers.sim.scenes.scene_file import plate_loads, scene_file_of
 from drivers.sim.transforms import compose, homogeneous, inverse_entries, pose_of, rigid_inverse, rotation_entries
-from perception.state import ObjectInfo
+from perception.state import FINGERS, ObjectInfo
 
 GRAVITY = 9.81
 CURVE_POINTS = 2001  # samples of the true load curve along a plate's span
@@ -41,7 +41,7 @@ ROUNDING_MARGIN = 1e-9  # m, far beyond the rounding of distances of a few metre
 Point = tuple[float, float, float]
 NO_FORCE: Point = (0.0, 0.0, 0.0)
 SIDES = (-1.0, 1.0)  # tool-y sides of the left and right fingertips
-_VIEW_KEY = struct.Struct("3d")  # the numbers a pair of fingertip views is made from, as bytes
+_THREE_FLOATS = struct.Struct("3d")  # three numbers as bytes, to compare them bit for bit (0.0 is not -0.0)
 
 
 @dataclass(eq=False, slots=True)  # not frozen: a frozen dataclass takes 3x as long to make
@@ -200,6 +200,7 @@ class AssemblyScene(Scene):
         self._bearing: tuple[Frame | None, Plate | None, float] = (None, None, 0.0)  # see _plate_on
         self._seen_key, self._seen_views = b"", (ObjectInfo(), ObjectInfo())  # see _seen
         self._untouched = {"left": FingerContact(), "right": FingerContact()}  # contacts() with nothing near
+        self._touch: tuple = (b"", None, None, {})  # see _touching
         self.collisions: list[str] = []  # "E2 hit E1 at t s", in order
         self.plate_pushes: dict[tuple[str, str], list[float]] = {}  # (element, plate) -> [first t, most N]
         self._t = 0.0
@@ -420,7 +421,7 @@ class AssemblyScene(Scene):
         left one mirrored) with these `areas`; made again only when one of the three numbers changes
         (compared as their bytes, so that 0.0 and -0.0 differ), as they stay the same while an
         element is held."""
-        key = _VIEW_KEY.pack(centre, *areas)
+        key = _THREE_FLOATS.pack(centre, *areas)
         if key != self._seen_key:
             left, right = (ObjectInfo(True, area, np.array([side * centre, 0.0]), 0.0) for side, area in zip(SIDES, areas))
             self._seen_key, self._seen_views = key, (left, right)
@@ -435,9 +436,20 @@ class AssemblyScene(Scene):
         (t00, _, t02, x), (t10, _, t12, y), (t20, _, t22, z) = tool[:3]
         f0, f1, f2 = self._force  # the element pushes the fingers with the external load
         shear_x, shear_z = 0.5 * (t00 * f0 + t10 * f1 + t20 * f2), 0.5 * (t02 * f0 + t12 * f1 + t22 * f2)
-        views = self._views(e, tool, e.frame().local(x, y, z))
-        return {finger: FingerContact(normal, np.array([side * shear_x, shear_z]), 0.0, None, view, self._slip)
-                for finger, side, view in (("left", -1.0, views[0]), ("right", 1.0, views[1]))}
+        return self._touching(normal, shear_x, shear_z, self._views(e, tool, e.frame().local(x, y, z)))
+
+    def _touching(self, normal: float, shear_x: float, shear_z: float,
+                  views: tuple[ObjectInfo, ObjectInfo]) -> dict[str, FingerContact]:
+        """The fingertip contacts with these loads (the left one's shear mirrored), `views` and the slip;
+        made again only when one of them changes (the loads compared as bytes, the views and the slip
+        as the same objects), as they stay the same while an element is carried through the air."""
+        key = _THREE_FLOATS.pack(normal, shear_x, shear_z)
+        last_key, last_views, last_slip, contacts = self._touch
+        if key != last_key or views is not last_views or self._slip is not last_slip:
+            contacts = {finger: FingerContact(normal, np.array([side * shear_x, shear_z]), 0.0, None, view, self._slip)
+                        for finger, side, view in zip(FINGERS, SIDES, views)}
+            self._touch = (key, views, self._slip, contacts)
+        return contacts
 
     def metrics(self) -> dict:
         """The collisions between elements and the plates held elements pushed, when there were any."""
