@@ -20,8 +20,7 @@ _VECTOR, _MATRIX = struct.Struct("3d"), struct.Struct("9d")  # a rotation vector
 
 def rotation_entries(r) -> tuple[float, ...]:
     """The 9 entries (row by row) of the rotation by rotation vector `r` (Rodrigues' formula)."""
-    x, y, z = r.tolist() if isinstance(r, np.ndarray) else map(float, r)
-    return _rotation(_VECTOR.pack(x, y, z))
+    return _rotation(_VECTOR.pack(*(r.tolist() if isinstance(r, np.ndarray) else r)))
 
 
 @functools.lru_cache(maxsize=KEPT)
