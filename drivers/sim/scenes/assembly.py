@@ -244,7 +244,7 @@ class AssemblyScene(Scene):
         if e is not None and e.state != "held" and self.gripper.squeeze_force() > 0.0:
             e.state = "held"
             e.grasp = compose(rigid_inverse(tool), homogeneous(e.pose))
-        held = self.held()
+        held = e if e is not None and e.state == "held" else None  # _between_fingers gives a held one first
         if held is not None and self.gripper.squeeze_force() <= 0.0:
             self._release(held)
         elif held is not None:
@@ -394,9 +394,9 @@ class AssemblyScene(Scene):
             self._release(e)
 
     # ---- sensing --------------------------------------------------------------------------
-    def _views(self, e: Element, tool: list[list[float]], local: Point) -> tuple[ObjectInfo, ObjectInfo]:
-        """What the left and right fingertip cameras (tool-y side -1 and +1) see of `e`; `tool` is the
-        TCP transform's rows, `local` the TCP position in the element frame.
+    def _views(self, e: Element, at: Point, tool: list[list[float]], local: Point) -> tuple[ObjectInfo, ObjectInfo]:
+        """What the left and right fingertip cameras (tool-y side -1 and +1) see of `e`, whose centre is
+        at `at`; `tool` is the TCP transform's rows, `local` the TCP position in the element frame.
 
         The visible share of the window along the element gives the area and centroid (the same
         share for both fingertips, mirrored); the gap between the element face and each pad scales
@@ -408,8 +408,7 @@ class AssemblyScene(Scene):
         if overlap <= 0.0:
             return ObjectInfo(), ObjectInfo()
         (_, t01, _, x), (_, t11, _, y), (_, t21, _, z) = tool[:3]
-        c = e.frame().centre
-        offset = t01 * (c[0] - x) + t11 * (c[1] - y) + t21 * (c[2] - z)  # element centre, tool y
+        offset = t01 * (at[0] - x) + t11 * (at[1] - y) + t21 * (at[2] - z)  # element centre, tool y
         half_width = self.gripper.width() / 2.0
         centre = ((lo + hi) / 2.0 - local[0]) / (2.0 * r)  # -0.5 .. 0.5 of the image width
         areas = [0.35 * overlap / (2.0 * r) / (1.0 + max(0.0, half_width - side * offset - e.width / 2.0) / 0.01)
@@ -436,7 +435,8 @@ class AssemblyScene(Scene):
         (t00, _, t02, x), (t10, _, t12, y), (t20, _, t22, z) = tool[:3]
         f0, f1, f2 = self._force  # the element pushes the fingers with the external load
         shear_x, shear_z = 0.5 * (t00 * f0 + t10 * f1 + t20 * f2), 0.5 * (t02 * f0 + t12 * f1 + t22 * f2)
-        return self._touching(normal, shear_x, shear_z, self._views(e, tool, e.frame().local(x, y, z)))
+        frame = e.frame()
+        return self._touching(normal, shear_x, shear_z, self._views(e, frame.centre, tool, frame.local(x, y, z)))
 
     def _touching(self, normal: float, shear_x: float, shear_z: float,
                   views: tuple[ObjectInfo, ObjectInfo]) -> dict[str, FingerContact]:
