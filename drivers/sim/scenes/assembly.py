@@ -17,6 +17,7 @@ shortfall in the truth's verdict.
 from __future__ import annotations
 
 import math
+import struct
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,15 +30,18 @@ from drivers.sim.models.fingervision_model import FingerContact
 from drivers.sim.models.plate import BeamPlate
 from drivers.sim.scenes.base import Scene
 from drivers.sim.scenes.scene_file import plate_loads, scene_file_of
-from drivers.sim.transforms import homogeneous, inverse_entries, pose_of, rigid_inverse, rotation_entries
-from perception.state import ObjectInfo
+from drivers.sim.transforms import compose, homogeneous, inverse_entries, pose_of, rigid_inverse, rotation_entries
+from perception.state import FINGERS, ObjectInfo
 
 GRAVITY = 9.81
 CURVE_POINTS = 2001  # samples of the true load curve along a plate's span
 STRAY_LOAD_N = 1.0  # load from a plate an element does not prop that counts as pushing it (N)
+NORMAL_DRAWS = 256  # standard normal draws taken from the scene's generator at a time
 ROUNDING_MARGIN = 1e-9  # m, far beyond the rounding of distances of a few metres
 Point = tuple[float, float, float]
 NO_FORCE: Point = (0.0, 0.0, 0.0)
+SIDES = (-1.0, 1.0)  # tool-y sides of the left and right fingertips
+_THREE_FLOATS = struct.Struct("3d")  # three numbers as bytes, to compare them bit for bit (0.0 is not -0.0)
 
 
 @dataclass(eq=False, slots=True)  # not frozen: a frozen dataclass takes 3x as long to make
@@ -69,6 +73,10 @@ class Frame:
         i = self.inverse
         return ((i[0] * x + i[2] * z) + (i[1] * y + i[3]), (i[4] * x + i[6] * z) + (i[5] * y + i[7]),
                 (i[8] * x + i[10] * z) + (i[9] * y + i[11]))
+
+    def is_upright(self, tol: float = 0.1) -> bool:
+        """Whether the element axis is within `tol` (of the cosine) of vertical."""
+        return abs(self.rotation[6]) > 1.0 - tol
 
 
 def _along(p: list[float], r: tuple[float, ...], s: float) -> Point:
@@ -105,7 +113,7 @@ class Element:
         return self.frame().ends
 
     def is_upright(self, tol: float = 0.1) -> bool:
-        return abs(self.frame().rotation[6]) > 1.0 - tol
+        return self.frame().is_upright(tol)
 
 
 def segment_distance(p0: Point, p1: Point, q0: Point, q1: Point) -> float:
@@ -147,15 +155,15 @@ class Plate:
     """A plate strip spanning along +x from `origin` (left support) at height `origin[2]`."""
 
     id: str
-    origin: np.ndarray  # left support [x, y, z_soffit]
+    origin: Point  # left support (x, y, z_soffit), on Python floats: a held element asks about it every tick
     width: float  # extent across (y)
     beam: BeamPlate
 
-    def position_along(self, p: np.ndarray) -> float | None:
+    def position_along(self, p: Point) -> float | None:
         """Distance a from the left support if p lies under the plate footprint, else None."""
         a = p[0] - self.origin[0]
         if 0.0 <= a <= self.beam.span and abs(p[1] - self.origin[1]) <= self.width / 2.0:
-            return float(a)
+            return a
         return None
 
 
@@ -182,6 +190,7 @@ class AssemblyScene(Scene):
 
     def __post_init__(self):
         self._rng = np.random.default_rng(self.config.seed)
+        self._draws: list[float] = []  # standard normal draws not used yet, the next one last
         self._loads: dict[str, float] = {}  # element id -> true load it carries now (N)
         self._slip = 0.0
         self._noise_scale: dict[str, float] = {}  # plate id -> load noise std (N)
@@ -189,6 +198,9 @@ class AssemblyScene(Scene):
         self._force_key: tuple = ()  # (element, state, pose, contact) of the last external force
         self._force_value = NO_FORCE
         self._bearing: tuple[Frame | None, Plate | None, float] = (None, None, 0.0)  # see _plate_on
+        self._seen_key, self._seen_views = b"", (ObjectInfo(), ObjectInfo())  # see _seen
+        self._untouched = {"left": FingerContact(), "right": FingerContact()}  # contacts() with nothing near
+        self._touch: tuple = (b"", None, None, {})  # see _touching
         self.collisions: list[str] = []  # "E2 hit E1 at t s", in order
         self.plate_pushes: dict[tuple[str, str], list[float]] = {}  # (element, plate) -> [first t, most N]
         self._t = 0.0
@@ -231,12 +243,12 @@ class AssemblyScene(Scene):
         self.gripper.step(dt)
         if e is not None and e.state != "held" and self.gripper.squeeze_force() > 0.0:
             e.state = "held"
-            e.grasp = rigid_inverse(tool) @ homogeneous(e.pose)
-        held = self.held()
+            e.grasp = compose(rigid_inverse(tool), homogeneous(e.pose))
+        held = e if e is not None and e.state == "held" else None  # _between_fingers gives a held one first
         if held is not None and self.gripper.squeeze_force() <= 0.0:
             self._release(held)
         elif held is not None:
-            self._carry(held, pose_of(tool @ held.grasp))
+            self._carry(held, pose_of(compose(tool, held.grasp)))
             if any(self._contact):
                 self._slip = 0.3  # the hand drags the held-back element over the pads
             else:
@@ -273,13 +285,13 @@ class AssemblyScene(Scene):
         self._near = self._between_fingers(tool)
         force = NO_FORCE
         if self._near is not None and self._near.state == "held":
-            e = self._near
+            e, frame = self._near, self._near.frame()
             force = self.external_force(e)
-            plate, load = self._plate_on(e)
+            plate, load = self._plate_on(frame)
             if plate is not None:
                 self._watch_push(e, plate, load)
             if plate is not None and self.config.force_noise:
-                noise = self._rng.normal(0.0, self._load_noise(plate, e.ends()[1]))
+                noise = self._normal(self._load_noise(plate, frame.ends[1]))
                 force = (force[0], force[1], force[2] - noise)
         self._force = force
         self.arm.external_wrench = np.array([*force, 0.0, 0.0, 0.0])
@@ -300,36 +312,36 @@ class AssemblyScene(Scene):
         """Net force (base frame, N) the ground, the plates and gravity put on a held element;
         computed once while the element, its state and the contact force stay as they are (a tick
         asks for it twice when the element does not slip)."""
-        key = (e.id, e.state, e.frame().key, self._contact)
+        frame = e.frame()
+        key = (e.id, e.state, frame.key, self._contact)
         if key != self._force_key:
-            self._force_key, self._force_value = key, self._external_force(e)
+            self._force_key, self._force_value = key, self._external_force(e, frame)
         return self._force_value
 
-    def _external_force(self, e: Element) -> Point:
-        bottom, _ = e.ends()
+    def _external_force(self, e: Element, frame: Frame) -> Point:
+        """`external_force` on element `e` in `frame`."""
+        bottom = frame.ends[0]
         f0, f1, f2 = 0.0, 0.0, -e.mass * GRAVITY
         if e.state == "held":
             f0, f1, f2 = f0 + self._contact[0], f1 + self._contact[1], f2 + self._contact[2]
         if bottom[2] < 0.0:
             f2 += self.config.ground_stiffness * -bottom[2]
-        load = self.plate_load(e)
+        load = self._plate_on(frame)[1]
         if load:
             f2 -= load
         return f0, f1, f2
 
     def plate_load(self, e: Element) -> float:
         """True load (N) the plate above puts on element `e`, noise-free."""
-        return self._plate_on(e)[1]
+        return self._plate_on(e.frame())[1]
 
-    def _plate_on(self, e: Element) -> tuple[Plate | None, float]:
-        """The plate above upright element `e` (None: none) and the true load it puts on `e` (N),
-        worked out once per pose of `e`, as a held element's tick asks for them twice."""
-        frame = e.frame()
+    def _plate_on(self, frame: Frame) -> tuple[Plate | None, float]:
+        """The plate above an upright element in `frame` (None: none) and the true load it puts on the
+        element (N), worked out once per frame, as a held element's tick asks for them twice."""
         if self._bearing[0] is not frame:
             top = frame.ends[1]
-            plate = self.plate_above(top) if e.is_upright() else None
-            load = 0.0 if plate is None else float(
-                plate.beam.carried_force(plate.position_along(top), plate.origin[2] - top[2]))
+            plate = self.plate_above(top) if frame.is_upright() else None
+            load = 0.0 if plate is None else plate.beam.carried_force(plate.position_along(top), plate.origin[2] - top[2])
             self._bearing = (frame, plate, load)
         return self._bearing[1], self._bearing[2]
 
@@ -352,7 +364,17 @@ class AssemblyScene(Scene):
         if plate.id not in self._noise_scale:
             peak = plate.beam.max_load(plate.origin[2] - top[2])[1]
             self._noise_scale[plate.id] = self.config.force_noise * peak
+            if self._noise_scale[plate.id] < 0.0:
+                raise ValueError(f"the load noise's std must not be negative (force_noise {self.config.force_noise})")
         return self._noise_scale[plate.id]
+
+    def _normal(self, std: float) -> float:
+        """A normal draw with mean 0 and `std` from the scene's generator: `normal(0.0, std)` bit for
+        bit (numpy works it out as 0.0 + std z), its standard normal draws z taken NORMAL_DRAWS at a
+        time, which gives the same numbers in the same order for a fraction of the cost of a call each."""
+        if not self._draws:
+            self._draws = self._rng.standard_normal(NORMAL_DRAWS).tolist()[::-1]
+        return 0.0 + std * self._draws.pop()
 
     def _update_slip(self, e: Element, dt: float, tool: np.ndarray) -> None:
         """Let the element slide in the grasp when friction cannot hold the load."""
@@ -366,15 +388,15 @@ class AssemblyScene(Scene):
             return
         shift = np.sign(along) * min(0.05, excess / max(grip, 1e-6) * 0.02) * dt
         e.pose[:3] += np.array([r[0], r[3], r[6]]) * shift
-        e.grasp = rigid_inverse(tool) @ homogeneous(e.pose)
+        e.grasp = compose(rigid_inverse(tool), homogeneous(e.pose))
         self._slip = min(1.0, 50.0 * abs(shift) / dt * 0.1)
         if abs(e.grasp[0, 3]) + abs(e.grasp[1, 3]) + abs(e.grasp[2, 3]) > e.length / 2.0:
             self._release(e)
 
     # ---- sensing --------------------------------------------------------------------------
-    def _views(self, e: Element, tool: list[list[float]], local: Point) -> tuple[ObjectInfo, ObjectInfo]:
-        """What the left and right fingertip cameras (tool-y side -1 and +1) see of `e`; `tool` is the
-        TCP transform's rows, `local` the TCP position in the element frame.
+    def _views(self, e: Element, at: Point, tool: list[list[float]], local: Point) -> tuple[ObjectInfo, ObjectInfo]:
+        """What the left and right fingertip cameras (tool-y side -1 and +1) see of `e`, whose centre is
+        at `at`; `tool` is the TCP transform's rows, `local` the TCP position in the element frame.
 
         The visible share of the window along the element gives the area and centroid (the same
         share for both fingertips, mirrored); the gap between the element face and each pad scales
@@ -386,29 +408,48 @@ class AssemblyScene(Scene):
         if overlap <= 0.0:
             return ObjectInfo(), ObjectInfo()
         (_, t01, _, x), (_, t11, _, y), (_, t21, _, z) = tool[:3]
-        c = e.frame().centre
-        offset = t01 * (c[0] - x) + t11 * (c[1] - y) + t21 * (c[2] - z)  # element centre, tool y
+        offset = t01 * (at[0] - x) + t11 * (at[1] - y) + t21 * (at[2] - z)  # element centre, tool y
         half_width = self.gripper.width() / 2.0
         centre = ((lo + hi) / 2.0 - local[0]) / (2.0 * r)  # -0.5 .. 0.5 of the image width
-        views = []
-        for side in (-1.0, 1.0):
-            gap = max(0.0, half_width - side * offset - e.width / 2.0)
-            area = 0.35 * overlap / (2.0 * r) / (1.0 + gap / 0.01)
-            views.append(ObjectInfo(True, area, np.array([side * centre, 0.0]), 0.0))
-        return views[0], views[1]
+        areas = [0.35 * overlap / (2.0 * r) / (1.0 + max(0.0, half_width - side * offset - e.width / 2.0) / 0.01)
+                 for side in SIDES]
+        return self._seen(centre, areas)
+
+    def _seen(self, centre: float, areas: list[float]) -> tuple[ObjectInfo, ObjectInfo]:
+        """The fingertip views (left, right) of an element seen at `centre` of the image width (the
+        left one mirrored) with these `areas`; made again only when one of the three numbers changes
+        (compared as their bytes, so that 0.0 and -0.0 differ), as they stay the same while an
+        element is held."""
+        key = _THREE_FLOATS.pack(centre, *areas)
+        if key != self._seen_key:
+            left, right = (ObjectInfo(True, area, np.array([side * centre, 0.0]), 0.0) for side, area in zip(SIDES, areas))
+            self._seen_key, self._seen_views = key, (left, right)
+        return self._seen_views
 
     def contacts(self) -> dict[str, FingerContact]:
         """Loads and views on the two fingertips for the current state."""
         tool, e = self._tool, self._near
         if e is None:
-            return {"left": FingerContact(), "right": FingerContact()}
+            return self._untouched
         normal = self.gripper.squeeze_force()
         (t00, _, t02, x), (t10, _, t12, y), (t20, _, t22, z) = tool[:3]
         f0, f1, f2 = self._force  # the element pushes the fingers with the external load
         shear_x, shear_z = 0.5 * (t00 * f0 + t10 * f1 + t20 * f2), 0.5 * (t02 * f0 + t12 * f1 + t22 * f2)
-        views = self._views(e, tool, e.frame().local(x, y, z))
-        return {finger: FingerContact(normal, np.array([side * shear_x, shear_z]), 0.0, None, view, self._slip)
-                for finger, side, view in (("left", -1.0, views[0]), ("right", 1.0, views[1]))}
+        frame = e.frame()
+        return self._touching(normal, shear_x, shear_z, self._views(e, frame.centre, tool, frame.local(x, y, z)))
+
+    def _touching(self, normal: float, shear_x: float, shear_z: float,
+                  views: tuple[ObjectInfo, ObjectInfo]) -> dict[str, FingerContact]:
+        """The fingertip contacts with these loads (the left one's shear mirrored), `views` and the slip;
+        made again only when one of them changes (the loads compared as bytes, the views and the slip
+        as the same objects), as they stay the same while an element is carried through the air."""
+        key = _THREE_FLOATS.pack(normal, shear_x, shear_z)
+        last_key, last_views, last_slip, contacts = self._touch
+        if key != last_key or views is not last_views or self._slip is not last_slip:
+            contacts = {finger: FingerContact(normal, np.array([side * shear_x, shear_z]), 0.0, None, view, self._slip)
+                        for finger, side, view in zip(FINGERS, SIDES, views)}
+            self._touch = (key, views, self._slip, contacts)
+        return contacts
 
     def metrics(self) -> dict:
         """The collisions between elements and the plates held elements pushed, when there were any."""
@@ -493,7 +534,7 @@ def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: i
     plates = {}
     for spec in args.get("plates", []):
         beam = BeamPlate(span=spec["span"], **loads.get(spec["id"], {}))
-        plates[spec["id"]] = Plate(spec["id"], np.array(spec["origin"], float),
+        plates[spec["id"]] = Plate(spec["id"], tuple(map(float, spec["origin"])),
                                    spec.get("width", 0.3), beam)
     config = SceneConfig(seed=seed, **world)
     return AssemblyScene(arm, gripper, elements, plates, config)
