@@ -36,7 +36,7 @@ from py_trees.common import Status
 from assembly.design import DesignModel
 from assembly.loader import BuiltTree
 from assembly.observe import IMAGE_HZ
-from assembly.observe.columns import Sparse, TickColumns
+from assembly.observe.columns import Sparse, TickColumns, column, scalars_column
 from assembly.observe.layout import default_blueprint
 from assembly.observe.scene3d import element_box, plate_boxes, quaternions
 from assembly.observe.tree_graph import tree_graph
@@ -325,19 +325,21 @@ class RunRecorder:
             index = columns.index()
             table = columns.robot_table()
             for entity, (start, names) in ROBOT.items():
-                send(entity, index, rr.Scalars.columns(scalars=table[:, start:start + len(names)]))
-            send("cell/tool", index, rr.Transform3D.columns(translation=table[:, 0:3],
-                                                              quaternion=quaternions(table[:, 3:6])))
+                send(entity, index, [scalars_column(table[:, start:start + len(names)])])
+            send("cell/tool", index, [
+                column(rr.Transform3D.descriptor_translation(), rr.components.Translation3DBatch(table[:, 0:3]), 1),
+                column(rr.Transform3D.descriptor_quaternion(), rr.components.RotationQuatBatch(quaternions(table[:, 3:6])), 1)])
             for k, finger in enumerate(FINGERS):
                 vectors, valid = columns.arrows(k)
                 table = columns.finger_table(k, valid)
                 for what, (start, names) in FINGER.items():
-                    send(f"fv/{finger}/{what}", index, rr.Scalars.columns(scalars=table[:, start:start + len(names)]))
+                    send(f"fv/{finger}/{what}", index, [scalars_column(table[:, start:start + len(names)])])
                 m = valid.shape[1]
                 if m:
-                    send(f"fv/{finger}/markers", index, rr.Arrows2D.columns(
-                        vectors=vectors.reshape(-1, 2).astype(np.float32),
-                        colors=np.where(valid.reshape(-1), VALID_RGBA, INVALID_RGBA)).partition(np.full(n, m)))
+                    send(f"fv/{finger}/markers", index, [
+                        column(rr.Arrows2D.descriptor_vectors(), rr.components.Vector2DBatch(vectors.reshape(-1, 2)), m),
+                        column(rr.Arrows2D.descriptor_colors(),
+                               rr.components.ColorBatch(np.where(valid.reshape(-1), VALID_RGBA, INVALID_RGBA)), m)])
         self._columns = TickColumns(0)  # the next tick starts the next batch
         self._sent_at = time.perf_counter()
 
