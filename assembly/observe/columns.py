@@ -58,8 +58,10 @@ class Sparse:
 class TickColumns:
     """The per-tick values of one batch, a list per column: references to the tick's readings (the
     perception stage publishes new ones every tick and never changes one it handed out), no object
-    made a tick, so the heap's collector has nothing new to walk; turned into arrays once per batch.
-    A batch holds at most `capacity` ticks, all of one marker calibration per finger (`origins`)."""
+    made a tick, so the heap's collector has nothing new to walk; turned into arrays once per batch,
+    each column list emptied as it is read, so that its readings are freed while still in the cache
+    (a batch's kept readings freed all at once, later, cost the tick ~2x as much). A batch holds at most
+    `capacity` ticks, all of one marker calibration per finger (`origins`)."""
 
     def __init__(self, capacity: int, states: tuple = ()):
         self.capacity = capacity
@@ -113,33 +115,35 @@ class TickColumns:
         return time_columns(np.array(self.ticks, np.int64), np.array(self.times))
 
     def robot_table(self) -> np.ndarray:
-        """(n, 14): pose, wrench, gripper width, object flag."""
+        """(n, 14): pose, wrench, gripper width, object flag (once: their columns are emptied)."""
         pose, wrench, width, holding = self.robot
         table = np.empty((self.n, 14))
         table[:, 0:6] = _stack(pose, 6)
         table[:, 6:12] = _stack(wrench, 6)
-        table[:, 12] = width
-        table[:, 13] = holding
+        table[:, 12] = _numbers(width)
+        table[:, 13] = _numbers(holding)
         return table
 
     def finger_table(self, k: int, valid: np.ndarray) -> np.ndarray:
         """(n, 14) of finger `k`: force, torque, slip, object area, centroid and orientation, healthy,
-        the share of valid markers (of `valid`, its (n, markers) validity) and the object flag."""
+        the share of valid markers (of `valid`, its (n, markers) validity) and the object flag (once: their
+        columns are emptied)."""
         force, torque, slip, area, centroid, orientation, healthy, present = self.fingers[k][:8]
         table = np.empty((self.n, 14))
         table[:, 0:3] = _stack(force, 3)
         table[:, 3:6] = _stack(torque, 3)
-        table[:, 6] = slip
-        table[:, 7] = area
+        table[:, 6] = _numbers(slip)
+        table[:, 7] = _numbers(area)
         table[:, 8:10] = _stack(centroid, 2)
-        table[:, 10] = orientation
-        table[:, 11] = healthy
+        table[:, 10] = _numbers(orientation)
+        table[:, 11] = _numbers(healthy)
         table[:, 12] = valid.mean(axis=1) if valid.shape[1] else 0.0
-        table[:, 13] = present
+        table[:, 13] = _numbers(present)
         return table
 
     def arrows(self, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """(n, markers, 2) displacement arrows and (n, markers) validity of finger `k`'s markers."""
+        """(n, markers, 2) displacement arrows and (n, markers) validity of finger `k`'s markers (once:
+        their columns are emptied)."""
         origin = self.origins[k]
         m = len(origin)
         positions, valid = self.fingers[k][8:10]
@@ -147,14 +151,20 @@ class TickColumns:
         return np.subtract(arrows, origin, out=arrows), _stack(valid, m, bool)
 
 
+def _numbers(values: list) -> np.ndarray:
+    """(n,) floats of n numbers (or flags); `values` is emptied."""
+    array = np.fromiter(values, float, len(values))
+    values.clear()
+    return array
+
+
 def _stack(values: list, width: int, dtype: type = float) -> np.ndarray:
-    """(n, width) array of n arrays of `width` values each (as `dtype`)."""
-    if not values:
-        return np.empty((0, width), dtype)
-    joined = _joined(values, width, np.dtype(dtype))
-    if joined is not None:
-        return joined
-    return np.concatenate(values).reshape(len(values), width).astype(dtype, copy=False)
+    """(n, width) array of n arrays of `width` values each (as `dtype`); `values` is emptied."""
+    stacked = _joined(values, width, np.dtype(dtype)) if values else np.empty((0, width), dtype)
+    if stacked is None:
+        stacked = np.concatenate(values).reshape(len(values), width).astype(dtype, copy=False)
+    values.clear()
+    return stacked
 
 
 def _joined(values: list, width: int, dtype: np.dtype) -> np.ndarray | None:
