@@ -25,7 +25,7 @@ import time
 from itertools import compress
 from operator import attrgetter, ne
 from pathlib import Path
-from typing import Any, BinaryIO
+from typing import Any
 
 import numpy as np
 import py_trees
@@ -108,7 +108,7 @@ class RunRecorder:
         self._next_scan, self._scan_drawn = 0.0, 0  # cell time of the next drawing of the scan, samples drawn
         self._design = design
         self._events = events
-        self._events_file: BinaryIO | None = None
+        self._events_fd: int | None = None  # the event log, opened once it exists
         self._events_read = 0  # bytes of the event log recorded
         self._closed = self._finished = False
         self._static(tree)
@@ -264,15 +264,16 @@ class RunRecorder:
 
     def _read_events(self, tick: int, now: float) -> None:
         """The event log's lines appended since the last tick (the log is append-only, so it is opened
-        once it exists and its size read from the open file: a path's stat costs several us a tick)."""
-        if self._events_file is None:
+        once it exists and its size found by seeking to its end: a path's stat costs several us a tick,
+        the open file's ~2 us, the seek ~0.5 us)."""
+        if self._events_fd is None:
             if not os.access(self._events, os.F_OK):
                 return
-            self._events_file = open(self._events, "rb")  # noqa: SIM115 - open for the run, closed in finish
-        if os.fstat(self._events_file.fileno()).st_size <= self._events_read:
+            self._events_fd = os.open(self._events, os.O_RDONLY)
+        size = os.lseek(self._events_fd, 0, os.SEEK_END)
+        if size <= self._events_read:
             return
-        self._events_file.seek(self._events_read)
-        data = self._events_file.read()
+        data = os.pread(self._events_fd, size - self._events_read, self._events_read)
         complete = data[:data.rfind(b"\n") + 1]
         self._events_read += len(complete)
         for line in complete.decode().splitlines():
@@ -403,8 +404,8 @@ class RunRecorder:
             self._finished = True
             if self._events is not None:
                 self._read_events(self._next_tick, self.cell.clock.now())
-                if self._events_file is not None:
-                    self._events_file.close()
+                if self._events_fd is not None:
+                    os.close(self._events_fd)
             self.stream.flush()
             self.stream.disconnect()
 
