@@ -315,62 +315,75 @@ class RunRecorder:
     def send(self) -> None:
         """Send the batch's rows as columns, one call per entity: the sparse rows (statuses, commands) first,
         so that a run killed while a batch is written keeps them with any of its ticks."""
-        columns = self._columns
-        n = columns.n
-        send = self.stream.send_columns
         if self._origins_logged:  # logged rows wait in Rerun's batcher: the origins go first, as they came first
             self.stream.flush()
             self._origins_logged = False
         self._send_sparse()
-        if n:
-            index = columns.index()
-            table = columns.robot_table()
-            for entity, (start, names) in ROBOT.items():
-                send(entity, index, [scalars_column(table[:, start:start + len(names)])])
-            send("cell/tool", index, [
-                column(rr.Transform3D.descriptor_translation(), rr.components.Translation3DBatch(table[:, 0:3]), 1),
-                column(rr.Transform3D.descriptor_quaternion(), rr.components.RotationQuatBatch(quaternions(table[:, 3:6])), 1)])
-            for k, finger in enumerate(FINGERS):
-                vectors, valid = columns.arrows(k)
-                table = columns.finger_table(k, valid)
-                for what, (start, names) in FINGER.items():
-                    send(f"fv/{finger}/{what}", index, [scalars_column(table[:, start:start + len(names)])])
-                m = valid.shape[1]
-                if m:
-                    send(f"fv/{finger}/markers", index, [
-                        column(rr.Arrows2D.descriptor_vectors(), rr.components.Vector2DBatch(vectors.reshape(-1, 2)), m),
-                        column(rr.Arrows2D.descriptor_colors(),
-                               rr.components.ColorBatch(np.where(valid.reshape(-1), VALID_RGBA, INVALID_RGBA)), m)])
+        if self._columns.n:
+            self._send_ticks(self._columns)
         self._columns = TickColumns(0)  # the next tick starts the next batch
         self._sent_at = time.perf_counter()
 
+    def _send_ticks(self, columns: TickColumns) -> None:
+        """The batch's per-tick rows: the robot's scalars and the tool's transform, then each finger's."""
+        send = self.stream.send_columns
+        index = columns.index()
+        table = columns.robot_table()
+        for entity, (start, names) in ROBOT.items():
+            send(entity, index, [scalars_column(table[:, start:start + len(names)])])
+        send("cell/tool", index, [
+            column(rr.Transform3D.descriptor_translation(), rr.components.Translation3DBatch(table[:, 0:3]), 1),
+            column(rr.Transform3D.descriptor_quaternion(), rr.components.RotationQuatBatch(quaternions(table[:, 3:6])), 1)])
+        for k, finger in enumerate(FINGERS):
+            self._send_finger(columns, index, k, finger)
+
+    def _send_finger(self, columns: TickColumns, index: list[rr.TimeColumn], k: int, finger: str) -> None:
+        """Finger `k`'s per-tick rows: its scalars and its marker displacement arrows (green: tracked)."""
+        send = self.stream.send_columns
+        vectors, valid = columns.arrows(k)
+        table = columns.finger_table(k, valid)
+        for what, (start, names) in FINGER.items():
+            send(f"fv/{finger}/{what}", index, [scalars_column(table[:, start:start + len(names)])])
+        m = valid.shape[1]
+        if m:
+            send(f"fv/{finger}/markers", index, [
+                column(rr.Arrows2D.descriptor_vectors(), rr.components.Vector2DBatch(vectors.reshape(-1, 2)), m),
+                column(rr.Arrows2D.descriptor_colors(),
+                       rr.components.ColorBatch(np.where(valid.reshape(-1), VALID_RGBA, INVALID_RGBA)), m)])
+
     def _send_sparse(self) -> None:
+        """The rows kept since the last batch: statuses, transitions, feedback, graph colours, commands,
+        camera frames and the drawings of load scans."""
         send = self.stream.send_columns
         taken = self._sparse["status"].take()
         if taken:
             index, rows = taken
             node, status, feedback = (list(c) for c in zip(*rows))
-            send("tree/status", index, rr.AnyValues.columns(node=node, status=status, feedback=feedback))
+            send("tree/status", index, [column(name, rr.components.TextBatch(texts), 1)  # what rr.AnyValues makes of text
+                                        for name, texts in (("node", node), ("status", status), ("feedback", feedback))])
         taken = self._sparse["transitions"].take()
         if taken:
             index, rows = taken
             text, level = (list(c) for c in zip(*rows))
-            send("tree/transitions", index, rr.TextLog.columns(text=text, level=level))
+            send("tree/transitions", index, [_text_column(text), column(
+                rr.TextLog.descriptor_level(), rr.components.TextLogLevelBatch(level), 1)])
         taken = self._sparse["feedback"].take()
         if taken:
             index, text = taken
-            send("tree/feedback", index, rr.TextLog.columns(text=text))
+            send("tree/feedback", index, [_text_column(text)])
         taken = self._sparse["graph"].take()
         if taken:
             index, colours = taken
-            send("tree/graph", index, rr.GraphNodes.columns(
-                node_ids=self._graph.paths * len(colours), colors=np.concatenate(colours)).partition(
-                [len(self._graph.paths)] * len(colours)))
+            nodes = len(self._graph.paths)
+            send("tree/graph", index, [
+                column(rr.GraphNodes.descriptor_node_ids(), rr.components.GraphNodeBatch(self._graph.paths * len(colours)),
+                       nodes),
+                column(rr.GraphNodes.descriptor_colors(), rr.components.ColorBatch(np.concatenate(colours)), nodes)])
         for device in ("arm", "gripper"):
             taken = self._sparse[f"commands/{device}"].take()
             if taken:
                 index, rows = taken
-                send(f"commands/{device}", index, rr.TextLog.columns(text=[_command_text(*r) for r in rows]))
+                send(f"commands/{device}", index, [_text_column([_command_text(*r) for r in rows])])
         for entity in IMAGES.values():
             taken = self._sparse[entity].take()
             if taken:
@@ -381,7 +394,9 @@ class RunRecorder:
                 taken = sparse.take()
                 if taken:
                     index, strips = taken
-                    send(entity, index, rr.LineStrips2D.columns(strips=strips, colors=[LOAD_RGB] * len(strips)))
+                    send(entity, index, [
+                        column(rr.LineStrips2D.descriptor_strips(), rr.components.LineStrip2DBatch(strips), 1),
+                        column(rr.LineStrips2D.descriptor_colors(), rr.components.ColorBatch([LOAD_RGB] * len(strips)), 1)])
 
     def close(self) -> None:
         """The run's ticks are over: send what is kept, write it out and detach from the safety gates;
@@ -414,6 +429,11 @@ def _profile_scale(loads: np.ndarray) -> float:
     """Drawing units per unit of load: the largest load drawn PROFILE_HEIGHT high (image y points down)."""
     top = max(float(np.max(np.abs(loads))) if loads.size else 0.0, 1e-9)
     return -PROFILE_HEIGHT / top
+
+
+def _text_column(texts: list[str]) -> rr.ComponentColumn:
+    """A `TextLog` text column, a text a row."""
+    return column(rr.TextLog.descriptor_text(), rr.components.TextBatch(texts), 1)
 
 
 def _command_text(what: str, args: tuple) -> str:
