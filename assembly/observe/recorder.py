@@ -25,7 +25,7 @@ import time
 from itertools import compress
 from operator import attrgetter, ne
 from pathlib import Path
-from typing import Any, BinaryIO
+from typing import Any
 
 import numpy as np
 import py_trees
@@ -36,7 +36,7 @@ from py_trees.common import Status
 from assembly.design import DesignModel
 from assembly.loader import BuiltTree
 from assembly.observe import IMAGE_HZ
-from assembly.observe.columns import Sparse, TickColumns
+from assembly.observe.columns import Sparse, TickColumns, column, scalars_column
 from assembly.observe.layout import default_blueprint
 from assembly.observe.scene3d import element_box, plate_boxes, quaternions
 from assembly.observe.tree_graph import tree_graph
@@ -108,7 +108,7 @@ class RunRecorder:
         self._next_scan, self._scan_drawn = 0.0, 0  # cell time of the next drawing of the scan, samples drawn
         self._design = design
         self._events = events
-        self._events_file: BinaryIO | None = None
+        self._events_fd: int | None = None  # the event log, opened once it exists
         self._events_read = 0  # bytes of the event log recorded
         self._closed = self._finished = False
         self._static(tree)
@@ -264,15 +264,16 @@ class RunRecorder:
 
     def _read_events(self, tick: int, now: float) -> None:
         """The event log's lines appended since the last tick (the log is append-only, so it is opened
-        once it exists and its size read from the open file: a path's stat costs several us a tick)."""
-        if self._events_file is None:
+        once it exists and its size found by seeking to its end: a path's stat costs several us a tick,
+        the open file's ~2 us, the seek ~0.5 us)."""
+        if self._events_fd is None:
             if not os.access(self._events, os.F_OK):
                 return
-            self._events_file = open(self._events, "rb")  # noqa: SIM115 - open for the run, closed in finish
-        if os.fstat(self._events_file.fileno()).st_size <= self._events_read:
+            self._events_fd = os.open(self._events, os.O_RDONLY)
+        size = os.lseek(self._events_fd, 0, os.SEEK_END)
+        if size <= self._events_read:
             return
-        self._events_file.seek(self._events_read)
-        data = self._events_file.read()
+        data = os.pread(self._events_fd, size - self._events_read, self._events_read)
         complete = data[:data.rfind(b"\n") + 1]
         self._events_read += len(complete)
         for line in complete.decode().splitlines():
@@ -314,60 +315,75 @@ class RunRecorder:
     def send(self) -> None:
         """Send the batch's rows as columns, one call per entity: the sparse rows (statuses, commands) first,
         so that a run killed while a batch is written keeps them with any of its ticks."""
-        columns = self._columns
-        n = columns.n
-        send = self.stream.send_columns
         if self._origins_logged:  # logged rows wait in Rerun's batcher: the origins go first, as they came first
             self.stream.flush()
             self._origins_logged = False
         self._send_sparse()
-        if n:
-            index = columns.index()
-            table = columns.robot_table()
-            for entity, (start, names) in ROBOT.items():
-                send(entity, index, rr.Scalars.columns(scalars=table[:, start:start + len(names)]))
-            send("cell/tool", index, rr.Transform3D.columns(translation=table[:, 0:3],
-                                                              quaternion=quaternions(table[:, 3:6])))
-            for k, finger in enumerate(FINGERS):
-                vectors, valid = columns.arrows(k)
-                table = columns.finger_table(k, valid)
-                for what, (start, names) in FINGER.items():
-                    send(f"fv/{finger}/{what}", index, rr.Scalars.columns(scalars=table[:, start:start + len(names)]))
-                m = valid.shape[1]
-                if m:
-                    send(f"fv/{finger}/markers", index, rr.Arrows2D.columns(
-                        vectors=vectors.reshape(-1, 2).astype(np.float32),
-                        colors=np.where(valid.reshape(-1), VALID_RGBA, INVALID_RGBA)).partition(np.full(n, m)))
+        if self._columns.n:
+            self._send_ticks(self._columns)
         self._columns = TickColumns(0)  # the next tick starts the next batch
         self._sent_at = time.perf_counter()
 
+    def _send_ticks(self, columns: TickColumns) -> None:
+        """The batch's per-tick rows: the robot's scalars and the tool's transform, then each finger's."""
+        send = self.stream.send_columns
+        index = columns.index()
+        table = columns.robot_table()
+        for entity, (start, names) in ROBOT.items():
+            send(entity, index, [scalars_column(table[:, start:start + len(names)])])
+        send("cell/tool", index, [
+            column(rr.Transform3D.descriptor_translation(), rr.components.Translation3DBatch(table[:, 0:3]), 1),
+            column(rr.Transform3D.descriptor_quaternion(), rr.components.RotationQuatBatch(quaternions(table[:, 3:6])), 1)])
+        for k, finger in enumerate(FINGERS):
+            self._send_finger(columns, index, k, finger)
+
+    def _send_finger(self, columns: TickColumns, index: list[rr.TimeColumn], k: int, finger: str) -> None:
+        """Finger `k`'s per-tick rows: its scalars and its marker displacement arrows (green: tracked)."""
+        send = self.stream.send_columns
+        vectors, valid = columns.arrows(k)
+        table = columns.finger_table(k, valid)
+        for what, (start, names) in FINGER.items():
+            send(f"fv/{finger}/{what}", index, [scalars_column(table[:, start:start + len(names)])])
+        m = valid.shape[1]
+        if m:
+            send(f"fv/{finger}/markers", index, [
+                column(rr.Arrows2D.descriptor_vectors(), rr.components.Vector2DBatch(vectors.reshape(-1, 2)), m),
+                column(rr.Arrows2D.descriptor_colors(),
+                       rr.components.ColorBatch(np.where(valid.reshape(-1), VALID_RGBA, INVALID_RGBA)), m)])
+
     def _send_sparse(self) -> None:
+        """The rows kept since the last batch: statuses, transitions, feedback, graph colours, commands,
+        camera frames and the drawings of load scans."""
         send = self.stream.send_columns
         taken = self._sparse["status"].take()
         if taken:
             index, rows = taken
             node, status, feedback = (list(c) for c in zip(*rows))
-            send("tree/status", index, rr.AnyValues.columns(node=node, status=status, feedback=feedback))
+            send("tree/status", index, [column(name, rr.components.TextBatch(texts), 1)  # what rr.AnyValues makes of text
+                                        for name, texts in (("node", node), ("status", status), ("feedback", feedback))])
         taken = self._sparse["transitions"].take()
         if taken:
             index, rows = taken
             text, level = (list(c) for c in zip(*rows))
-            send("tree/transitions", index, rr.TextLog.columns(text=text, level=level))
+            send("tree/transitions", index, [_text_column(text), column(
+                rr.TextLog.descriptor_level(), rr.components.TextLogLevelBatch(level), 1)])
         taken = self._sparse["feedback"].take()
         if taken:
             index, text = taken
-            send("tree/feedback", index, rr.TextLog.columns(text=text))
+            send("tree/feedback", index, [_text_column(text)])
         taken = self._sparse["graph"].take()
         if taken:
             index, colours = taken
-            send("tree/graph", index, rr.GraphNodes.columns(
-                node_ids=self._graph.paths * len(colours), colors=np.concatenate(colours)).partition(
-                [len(self._graph.paths)] * len(colours)))
+            nodes = len(self._graph.paths)
+            send("tree/graph", index, [
+                column(rr.GraphNodes.descriptor_node_ids(), rr.components.GraphNodeBatch(self._graph.paths * len(colours)),
+                       nodes),
+                column(rr.GraphNodes.descriptor_colors(), rr.components.ColorBatch(np.concatenate(colours)), nodes)])
         for device in ("arm", "gripper"):
             taken = self._sparse[f"commands/{device}"].take()
             if taken:
                 index, rows = taken
-                send(f"commands/{device}", index, rr.TextLog.columns(text=[_command_text(*r) for r in rows]))
+                send(f"commands/{device}", index, [_text_column([_command_text(*r) for r in rows])])
         for entity in IMAGES.values():
             taken = self._sparse[entity].take()
             if taken:
@@ -378,7 +394,9 @@ class RunRecorder:
                 taken = sparse.take()
                 if taken:
                     index, strips = taken
-                    send(entity, index, rr.LineStrips2D.columns(strips=strips, colors=[LOAD_RGB] * len(strips)))
+                    send(entity, index, [
+                        column(rr.LineStrips2D.descriptor_strips(), rr.components.LineStrip2DBatch(strips), 1),
+                        column(rr.LineStrips2D.descriptor_colors(), rr.components.ColorBatch([LOAD_RGB] * len(strips)), 1)])
 
     def close(self) -> None:
         """The run's ticks are over: send what is kept, write it out and detach from the safety gates;
@@ -401,8 +419,8 @@ class RunRecorder:
             self._finished = True
             if self._events is not None:
                 self._read_events(self._next_tick, self.cell.clock.now())
-                if self._events_file is not None:
-                    self._events_file.close()
+                if self._events_fd is not None:
+                    os.close(self._events_fd)
             self.stream.flush()
             self.stream.disconnect()
 
@@ -411,6 +429,11 @@ def _profile_scale(loads: np.ndarray) -> float:
     """Drawing units per unit of load: the largest load drawn PROFILE_HEIGHT high (image y points down)."""
     top = max(float(np.max(np.abs(loads))) if loads.size else 0.0, 1e-9)
     return -PROFILE_HEIGHT / top
+
+
+def _text_column(texts: list[str]) -> rr.ComponentColumn:
+    """A `TextLog` text column, a text a row."""
+    return column(rr.TextLog.descriptor_text(), rr.components.TextBatch(texts), 1)
 
 
 def _command_text(what: str, args: tuple) -> str:
