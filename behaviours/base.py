@@ -137,11 +137,16 @@ class KeyReads:
         return Blackboard.storage[name]
 
     def get(self, key: str, default: Any = None) -> Any:
-        """The value of `key`, or `default` when it is unset."""
-        try:
-            return self[key]
-        except KeyError:
-            return default
+        """The value of `key`, or `default` when it is unset; read directly as `[key]` reads, without
+        raising and catching a KeyError for an unset key (for_each_element asks for /task/asbuilt
+        every tick, and it is unset until the first placement)."""
+        name = self._names.get(key)
+        if name is None or Blackboard.activity_stream is not None:
+            try:
+                return self.client.get(key)
+            except KeyError:
+                return default
+        return Blackboard.storage.get(name, default)
 
 
 class Skill(py_trees.behaviour.Behaviour):
