@@ -13,6 +13,7 @@ from py_trees.common import Status
 
 from assembly import composites
 from assembly.decorators import CellTimeout, StatusMap
+from assembly.runner import BehaviourTree
 from behaviours.base import Skill
 
 STATUSES = (Status.RUNNING, Status.RUNNING, Status.SUCCESS, Status.FAILURE)
@@ -72,7 +73,7 @@ DECORATORS = {"pass_through": (py_trees.decorators.PassThrough, composites.PassT
 def random_spec(rng: random.Random, depth: int = 0) -> tuple:
     """A random tree: (kind, name, args, children) tuples, leaves with their status scripts."""
     name = f"n{rng.randrange(10**9)}"
-    if depth >= 4 or rng.random() < 0.3:
+    if depth >= 4 or depth and rng.random() < 0.3:  # the root is never a leaf
         return ("leaf", name, [rng.choice(STATUSES) for _ in range(rng.randint(1, 8))], [])
     kind = rng.choice([*COMPOSITES, *COMPOSITES, *DECORATORS, "parallel"])
     if kind in COMPOSITES or kind == "parallel":
@@ -153,3 +154,22 @@ def test_a_node_changing_how_it_ticks_changes_both_ways():
         type("OwnTick", (composites.DirectDecorator, py_trees.decorators.Decorator), {"tick": tick})
     with pytest.raises(TypeError, match="tick_once"):
         type("OwnTick", (Skill,), {"tick": tick})
+
+
+def test_the_runner_ticks_without_generators_unless_the_tree_has_visitors():
+    """With a visitor, py_trees' generator ticks show it every ticked node; either way, the same states."""
+    spec = random_spec(random.Random(7))
+    trees = {}
+    for visited in (False, True):
+        log: list = []
+        tree = BehaviourTree(build(spec, True, log, Clock()))
+        if visited:
+            seen = []
+            visitor = py_trees.visitors.VisitorBase(full=False)
+            visitor.run = seen.append
+            tree.add_visitor(visitor)
+        for _ in range(20):
+            tree.tick()
+        trees[visited] = (log, state(tree.root))
+    assert trees[True] == trees[False]
+    assert seen and tree.root in seen
