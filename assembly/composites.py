@@ -6,8 +6,9 @@ A run has no visitors, and walking those generators down from the root every tic
 assembly about as much as its skills' own work. The classes here add `tick_once`, which py_trees
 documents as ticking "without iterating step-by-step over the children (i.e. without generators)":
 the steps of py_trees' own `tick`, in the same order, with each child ticked by its `tick_once`.
-Statuses, feedback, `initialise`, `terminate` and `stop` calls are the same either way;
-py_trees' debug log lines are left out. `tick` stays py_trees' own, for a tree with visitors.
+Statuses, feedback, `initialise`, `terminate` and `stop` calls are the same either way
+(tests/test_composites.py compares the two on random trees); py_trees' debug log lines are left
+out. `tick` stays py_trees' own, for a tree with visitors.
 
 A node of another kind (a plugin's, py_trees' parallel) keeps py_trees' `tick_once`, which runs
 its generator; under it, children tick through their generators as before.
