@@ -1,15 +1,17 @@
 """Decorators the YAML language adds to py_trees: a timeout on the cell clock, a guard that
-re-checks a condition every tick, and status mapping."""
+re-checks a condition every tick, and status mapping. The timeout and the status map tick without
+generators under the runner (`assembly.composites`)."""
 
 from __future__ import annotations
 
 import py_trees
 from py_trees.common import Status
 
+from assembly.composites import DirectDecorator
 from assembly.conditions import Condition
 
 
-class CellTimeout(py_trees.decorators.Decorator):
+class CellTimeout(DirectDecorator, py_trees.decorators.Decorator):
     """FAILURE (child halted) when the child runs longer than `duration` s of cell time.
 
     py_trees' own Timeout reads time.monotonic(); this one reads the cell clock, so simulated
@@ -46,7 +48,7 @@ class Guard(py_trees.decorators.EternalGuard):
         return self.decorated.status
 
 
-class StatusMap(py_trees.decorators.Decorator):
+class StatusMap(DirectDecorator, py_trees.decorators.Decorator):
     """Returns the child's status translated through `mapping` (e.g. FAILURE -> SUCCESS)."""
 
     def __init__(self, name: str, child: py_trees.behaviour.Behaviour, mapping: dict[Status, Status]):

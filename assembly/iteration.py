@@ -5,12 +5,13 @@ from __future__ import annotations
 import py_trees
 from py_trees.common import Access, Status
 
+from assembly.composites import DirectDecorator
 from assembly.design import WAIT
 from behaviours import keys
 from behaviours.base import KeyReads
 
 
-class ForEachElement(py_trees.decorators.Decorator):
+class ForEachElement(DirectDecorator, py_trees.decorators.Decorator):
     """Runs its child once per unplaced element, in build order.
 
     Between two elements the design bridge applies the design changes its live links received
@@ -86,26 +87,39 @@ class ForEachElement(py_trees.decorators.Decorator):
         self._publish_next()
 
     def tick(self):
+        """py_trees' generator tick (for trees ticked with visitors); `tick_once` without it."""
+        new_status = self._status_without_child()
+        if new_status is None:
+            yield from self.decorated.tick()
+            new_status = self.update()
+        self.end_tick(new_status)
+        yield self
+
+    def tick_once(self) -> None:
+        """The runner's tick, without generators (`assembly.composites`): the steps of `tick`."""
+        new_status = self._status_without_child()
+        if new_status is None:
+            self.decorated.tick_once()
+            new_status = self.update()
+        self.end_tick(new_status)
+
+    def _status_without_child(self) -> Status | None:
+        """The start of a tick: publish the next element when starting or waiting; this tick's
+        status when the child is not to tick (waiting, a placement to check, nothing left), else None."""
         if self.status != Status.RUNNING:
             self.initialise()
         elif self.waiting:
             self._publish_next()
         if self.waiting:
-            new_status = Status.RUNNING
-        elif self._left_placing():
+            return Status.RUNNING
+        if self._left_placing():
             self.feedback_message = (f"element {self.current} was being released when its placement "
                                      "stopped: check it before building it again")
-            new_status = Status.FAILURE
-        elif self.current is None:  # nothing left to build
+            return Status.FAILURE
+        if self.current is None:  # nothing left to build
             self.feedback_message = "all elements placed"
-            new_status = Status.SUCCESS
-        else:
-            yield from self.decorated.tick()
-            new_status = self.update()
-        if new_status != Status.RUNNING:
-            self.stop(new_status)
-        self.status = new_status
-        yield self
+            return Status.SUCCESS
+        return None
 
     def update(self) -> Status:
         status = self.decorated.status

@@ -204,10 +204,12 @@ class BuiltTree:
     nodes: dict[str, py_trees.behaviour.Behaviour]  # path -> node
 
     def path_of(self, node: py_trees.behaviour.Behaviour) -> str:
-        return self._paths[node.id]
+        return self._paths[node]
 
     def __post_init__(self):
-        self._paths = {node.id: path for path, node in self.nodes.items()}
+        # Keyed by the nodes themselves (hashed by identity, in C): the tip's path is looked up every
+        # tick, and a node's uuid hashes in Python at three times the cost.
+        self._paths = {node: path for path, node in self.nodes.items()}
 
 
 def build(doc: TreeDocument) -> BuiltTree:

@@ -16,6 +16,7 @@ import py_trees
 from py_trees.behaviour import Behaviour
 from py_trees.common import ParallelPolicy, Status
 
+from assembly import composites
 from assembly.conditions import ALL_OPS, Condition
 from assembly.decorators import CellTimeout, Guard, StatusMap
 from assembly.iteration import ForEachElement
@@ -290,8 +291,8 @@ def _composite_kind(cls: type, until: str) -> NodeKind:
 
 
 NODE_KINDS: dict[str, NodeKind] = {
-    "sequence": _composite_kind(py_trees.composites.Sequence, "does not succeed"),
-    "selector": _composite_kind(py_trees.composites.Selector, "does not fail"),
+    "sequence": _composite_kind(composites.Sequence, "does not succeed"),
+    "selector": _composite_kind(composites.Selector, "does not fail"),
     "parallel": NodeKind(
         doc="ticks every child; succeeds on all, one, or the selected children",
         fields={"policy": {"enum": list(POLICIES)}, "children": CHILDREN, "synchronise": BOOLEAN,
@@ -301,12 +302,12 @@ NODE_KINDS: dict[str, NodeKind] = {
     "retry": _decorator(
         doc="fails after `attempts` failures of the child",
         fields={"attempts": {"type": "integer", "minimum": 1}}, check=_retry, label=_label_with("attempts"),
-        build=lambda spec, kids: py_trees.decorators.Retry(
+        build=lambda spec, kids: composites.Retry(
             name=spec.name, child=kids[0], num_failures=spec.args["attempts"])),
     "repeat": _decorator(
         doc="succeeds after `times` successes of the child (-1: for ever)",
         fields={"times": {"type": "integer", "minimum": -1}}, check=_repeat, label=_label_with("times"),
-        build=lambda spec, kids: py_trees.decorators.Repeat(
+        build=lambda spec, kids: composites.Repeat(
             name=spec.name, child=kids[0], num_success=spec.args["times"])),
     "timeout": _decorator(
         doc="fails (halting the child) after `seconds` of cell time",
@@ -315,7 +316,7 @@ NODE_KINDS: dict[str, NodeKind] = {
         build=lambda spec, kids: CellTimeout(spec.name, kids[0], float(spec.args["seconds"]))),
     "inverter": _decorator(
         doc="swaps success and failure",
-        build=lambda spec, kids: py_trees.decorators.Inverter(name=spec.name, child=kids[0])),
+        build=lambda spec, kids: composites.Inverter(name=spec.name, child=kids[0])),
     "status_map": _decorator(
         doc="maps the child's status, e.g. `map: {failure: success}`",
         fields={"map": {"type": "object", "propertyNames": {"enum": list(STATUSES)},
@@ -349,5 +350,5 @@ NODE_KINDS: dict[str, NodeKind] = {
         doc="an instance of a subtree; `$param` strings in its body take the given values",
         fields={"name": STRING, "params": {"type": "object"}}, required=frozenset(), check=_subtree,
         label=lambda spec: f"[subtree {spec.type}]", value="REF", substitutes=frozenset({"params"}),
-        build=lambda spec, kids: py_trees.decorators.PassThrough(name=spec.name, child=kids[0])),
+        build=lambda spec, kids: composites.PassThrough(name=spec.name, child=kids[0])),
 }

@@ -137,11 +137,16 @@ class KeyReads:
         return Blackboard.storage[name]
 
     def get(self, key: str, default: Any = None) -> Any:
-        """The value of `key`, or `default` when it is unset."""
-        try:
-            return self[key]
-        except KeyError:
-            return default
+        """The value of `key`, or `default` when it is unset; read directly as `[key]` reads, without
+        raising and catching a KeyError for an unset key (for_each_element asks for /task/asbuilt
+        every tick, and it is unset until the first placement)."""
+        name = self._names.get(key)
+        if name is None or Blackboard.activity_stream is not None:
+            try:
+                return self.client.get(key)
+            except KeyError:
+                return default
+        return Blackboard.storage.get(name, default)
 
 
 class Skill(py_trees.behaviour.Behaviour):
@@ -208,10 +213,17 @@ class Skill(py_trees.behaviour.Behaviour):
             raise RuntimeError(f"skill {self.name!r} needs tree.setup(cell=...) before ticking")
         self.cell = cell
 
-    def tick(self) -> Iterator[Skill]:
-        """py_trees' `Behaviour.tick` without its per-tick overhead (a debug message formatted whether
-        or not it is printed, a list of every Status to check the one returned): initialise unless
-        running, update, stop on a final status."""
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """A skill that changes how it ticks changes both ways of ticking (the runner uses `tick_once`)."""
+        super().__init_subclass__(**kwargs)
+        if cls.tick is not Skill.tick and cls.tick_once is Skill.tick_once:
+            raise TypeError(f"{cls.__name__} overrides tick(): it must override tick_once() the same way")
+
+    def tick_once(self) -> None:
+        """py_trees' `Behaviour.tick` without its generator (the runner ticks the tree without them,
+        `assembly.composites`) nor its per-tick overhead (a debug message formatted whether or not it
+        is printed, a list of every Status to check the one returned): initialise unless running,
+        update, stop on a final status."""
         if self.status is not Status.RUNNING:
             self.initialise()
         new_status = self.update()
@@ -221,6 +233,10 @@ class Skill(py_trees.behaviour.Behaviour):
         if new_status is not Status.RUNNING:
             self.stop(new_status)
         self.status = new_status
+
+    def tick(self) -> Iterator[Skill]:
+        """py_trees' generator tick (for trees ticked with visitors): `tick_once`, then yield itself."""
+        self.tick_once()
         yield self
 
     def stop(self, new_status: Status) -> None:

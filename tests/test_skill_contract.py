@@ -15,8 +15,10 @@ from typing import Any
 
 import numpy as np
 import pytest
+from py_trees.blackboard import ActivityStream, Blackboard
 from py_trees.common import Status
 
+from assembly.blackboard import clear_blackboard
 from assembly.design import DesignModel
 from assembly.errors import TreeErrors
 from assembly.loader import load_tree
@@ -194,6 +196,25 @@ def test_an_undeclared_read_is_refused():
     skill = Undeclared("s", offset=[0.0, 0.0, 0.01])
     with pytest.raises(AttributeError):
         skill.pose()
+    with pytest.raises(AttributeError):
+        skill.read(keys.ROBOT_POSE, "default")
+
+
+def test_reads_give_the_value_or_the_default_whether_direct_or_through_the_client():
+    clear_blackboard()
+    skill = SKILLS["move_to"]("s", offset=[0.0, 0.0, 0.01])
+    Blackboard.storage[keys.ROBOT_POSE] = None
+    for recording in (False, True):  # py_trees' activity stream on: every read goes through the client
+        Blackboard.activity_stream = ActivityStream() if recording else None
+        try:
+            assert skill.read(keys.ROBOT_FAULT, "unset") == "unset"
+            assert skill.read(keys.ROBOT_POSE, "unset") is None  # set to None: None, not the default
+            with pytest.raises(KeyError):
+                skill.reads[keys.ROBOT_FAULT]
+            assert not recording or Blackboard.activity_stream.data  # recorded: the reads are in the stream
+        finally:
+            Blackboard.activity_stream = None
+    clear_blackboard()
 
 
 # ---- (e) it ends by itself within a bound, or says it runs until halted ---------------------------
