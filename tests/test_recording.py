@@ -234,6 +234,30 @@ def test_batch_columns_give_the_per_tick_arrows_and_end_at_a_calibration():
     assert not TickColumns(5, states[0]).takes((calibrated, states[0][1]))
 
 
+def test_batch_columns_read_views_and_lists_as_whole_arrays():
+    """Marker positions that are views into a wider array (x, y, size per marker, as the noisy simulated
+    fingertip makes them) and a pose given as a list give the same columns as whole arrays do."""
+    from assembly.observe.columns import TickColumns
+    from perception.state import MarkerField, TactileState
+
+    rng = np.random.default_rng(1)
+    origin = rng.random((4, 2)) * 100
+    markers = [rng.random((4, 3)) * 100 for _ in range(2)]  # x, y, size
+    tables = []
+    for view in (True, False):
+        states = [tuple(TactileState(finger, 0.0, MarkerField(origin, m[:, :2] if view else m[:, :2].copy()))
+                        for finger in ("left", "right")) for m in markers]
+        columns = TickColumns(2, states[0])
+        for tick, pair in enumerate(states):
+            pose = [float(tick)] * 6 if view else np.full(6, float(tick))
+            columns.add(tick, tick / 30.0, pose, np.zeros(6), 0.04, False, pair)
+        arrows, valid = columns.arrows(0)
+        tables.append((arrows, columns.finger_table(0, valid), columns.robot_table()))
+    for views, whole in zip(*tables):
+        assert np.array_equal(views, whole)
+    assert np.array_equal(tables[0][0][1], markers[1][:, :2] - origin)
+
+
 def test_a_recording_cut_inside_a_message_reads_up_to_it(assembly_run, tmp_path):
     """SIGKILL while a batch is written leaves its message cut: the whole messages before it are read."""
     _, run_dir, rec = assembly_run

@@ -1,6 +1,6 @@
-"""Per-tick data kept until it is sent: the recorder writes each tick's values into arrays made
-once per batch (no Rerun call, no object kept a tick) and sends each column once per batch with
-`send_columns`, whose fixed cost (~0.2 ms a call) is then shared by a whole batch of ticks."""
+"""Per-tick data kept until it is sent: the recorder keeps each tick's values in the batch's column
+lists (no Rerun call a tick), turns them into arrays once per batch and sends each column once per
+batch with `send_columns`, whose fixed cost (0.05-0.1 ms a call) is then shared by a whole batch of ticks."""
 
 from __future__ import annotations
 
