@@ -199,7 +199,7 @@ class AssemblyScene(Scene):
         self._force_value = NO_FORCE
         self._bearing: tuple[Frame | None, Plate | None, float] = (None, None, 0.0)  # see _plate_on
         self._seen_key, self._seen_views = b"", (ObjectInfo(), ObjectInfo())  # see _seen
-        self._untouched = {"left": FingerContact(), "right": FingerContact()}  # contacts() with nothing near
+        self._untouched = {finger: FingerContact() for finger in FINGERS}  # contacts() with nothing near
         self._touch: tuple = (b"", None, None, {})  # see _touching
         self.collisions: list[str] = []  # "E2 hit E1 at t s", in order
         self.plate_pushes: dict[tuple[str, str], list[float]] = {}  # (element, plate) -> [first t, most N]
