@@ -79,6 +79,8 @@ def object_motion(prev, contact, marker_motion: float) -> float:
     """`image_motion` with the markers' mean motion (px/frame) given."""
     obj, last = contact.obj, prev.obj
     motion = SLIP_PX_PER_UNIT * contact.slip + marker_motion
+    if obj is last:  # the scene's view of the object did not change: it adds nothing
+        return motion
     if obj.present and last.present:
         (dx, dy) = (obj.centroid - last.centroid).tolist()
         radius = object_radius(obj.area)
