@@ -258,6 +258,20 @@ def test_batch_columns_read_views_and_lists_as_whole_arrays():
     assert np.array_equal(tables[0][0][1], markers[1][:, :2] - origin)
 
 
+def test_batch_columns_of_mixed_number_types_keep_their_values():
+    """A column whose arrays are not all floats (a driver giving an integer pose on one tick) keeps its
+    numbers: the bytes of arrays of another type are never read as floats."""
+    from assembly.observe.columns import TickColumns
+    from perception.state import TactileState
+
+    pair = (TactileState("left", 0.0), TactileState("right", 0.0))
+    columns = TickColumns(3, pair)
+    poses = [np.full(6, 1.5), np.arange(6), np.full(6, 2.5)]  # the second one int64, eight bytes as a float
+    for tick, pose in enumerate(poses):
+        columns.add(tick, tick / 30.0, pose, np.zeros(6), 0.04, False, pair)
+    assert np.array_equal(columns.robot_table()[:, :6], np.array(poses, float))
+
+
 def test_a_recording_cut_inside_a_message_reads_up_to_it(assembly_run, tmp_path):
     """SIGKILL while a batch is written leaves its message cut: the whole messages before it are read."""
     _, run_dir, rec = assembly_run
