@@ -33,6 +33,7 @@ from drivers.cell_builders import load_cell
 MARKS = ("placed", "planned")  # what a person may mark an element left `placing`
 
 
+@sigterm_raises_terminated()  # from the start: SIGTERM while the cell is set up closes it like Ctrl-C
 def run_tree(tree_path: str, cell: str = "sim", seed: int = 0, realtime: bool = False,
              perception: str | None = None, runs_dir: Path = Path("runs"), resume: str | None = None,
              estop_at: float | None = None, max_time: float = 3600.0, plots: bool = True,
@@ -94,7 +95,7 @@ def run_tree(tree_path: str, cell: str = "sim", seed: int = 0, realtime: bool = 
         if bridge:
             bridge.event("start", tree=str(tree_path), cell=cell, seed=seed, resume=bool(resume))
         runner.setup()
-        with _frozen_heap(), sigterm_raises_terminated():
+        with _frozen_heap():
             result = runner.run()
     finally:
         the_cell.close()

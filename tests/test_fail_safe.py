@@ -116,16 +116,39 @@ def test_sigterm_halts_the_run_like_ctrl_c(tmp_path):
                              "--no-plots", "--speed", "realtime"], cwd=ROOT, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 60
-    while not list(tmp_path.glob("*/transitions.jsonl")) and time.monotonic() < deadline:
-        time.sleep(0.1)
+    while not any(p.stat().st_size for p in tmp_path.glob("*/transitions.jsonl")) and time.monotonic() < deadline:
+        time.sleep(0.1)  # the first tick's transitions are written: the tick loop runs (setup can take seconds)
     time.sleep(1.0)  # well into the first skill
     proc.send_signal(signal.SIGTERM)
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 1, err
-    assert out.startswith("HALTED: interrupted (SIGTERM) during main/"), out
+    assert out.startswith("HALTED: interrupted (SIGTERM) during main/"), out + err
     run_dir = next(tmp_path.iterdir())
     assert [e["event"] for e in lines(run_dir / "events.jsonl")][-2:] == ["halted", "end"]
     assert json.loads((run_dir / "summary.json").read_text())["status"] == "HALTED"
+
+
+def test_sigterm_while_the_run_is_set_up_closes_the_cell_like_ctrl_c(tmp_path, monkeypatch):
+    """SIGTERM before the tick loop (the cell built, the tree being built) interrupts the run like
+    Ctrl-C: the cell is closed, the command ends 130 'interrupted', and the handler is put back."""
+    closed = []
+    real_load_cell, real_build = load_cell, build
+
+    def watched_cell(*args, **kwargs):
+        cell = real_load_cell(*args, **kwargs)
+        close = cell.close
+        cell.close = lambda: (closed.append(True), close())[1]
+        return cell
+
+    def build_then_sigterm(doc):
+        signal.raise_signal(signal.SIGTERM)  # arrives while the session sets the run up
+        return real_build(doc)
+
+    monkeypatch.setattr("assembly.session.load_cell", watched_cell)
+    monkeypatch.setattr("assembly.session.build", build_then_sigterm)
+    before = signal.getsignal(signal.SIGTERM)
+    assert main(["run", ASSEMBLY, "--runs-dir", str(tmp_path), "--no-plots"]) == 130
+    assert closed == [True] and signal.getsignal(signal.SIGTERM) is before
 
 
 def test_a_failed_as_built_write_halts_the_run_with_the_placement_in_the_log(tmp_path, monkeypatch):
