@@ -19,6 +19,8 @@ from __future__ import annotations
 import py_trees
 from py_trees.common import Status
 
+from behaviours.base import require_tick_once
+
 RUNNING, SUCCESS, FAILURE, INVALID = Status.RUNNING, Status.SUCCESS, Status.FAILURE, Status.INVALID
 
 
@@ -100,8 +102,7 @@ class DirectDecorator:
 
     def __init_subclass__(cls, **kwargs) -> None:
         super().__init_subclass__(**kwargs)
-        if cls.tick is not py_trees.decorators.Decorator.tick and cls.tick_once is DirectDecorator.tick_once:
-            raise TypeError(f"{cls.__name__} overrides tick(): it must override tick_once() the same way")
+        require_tick_once(cls, py_trees.decorators.Decorator.tick, DirectDecorator.tick_once)
 
     def tick_once(self) -> None:
         """py_trees' `Decorator.tick`: initialise unless running, tick the child, update, and

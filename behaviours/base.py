@@ -131,22 +131,31 @@ class KeyReads:
 
     def __getitem__(self, key: str) -> Any:
         """The value of `key`; KeyError when it is unset, as from the client."""
-        name = self._names.get(key)
-        if name is None or Blackboard.activity_stream is not None:
-            return self.client.get(key)
-        return Blackboard.storage[name]
+        name = self._stored_name(key)
+        return self.client.get(key) if name is None else Blackboard.storage[name]
 
     def get(self, key: str, default: Any = None) -> Any:
-        """The value of `key`, or `default` when it is unset; read directly as `[key]` reads, without
-        raising and catching a KeyError for an unset key (for_each_element asks for /task/asbuilt
-        every tick, and it is unset until the first placement)."""
-        name = self._names.get(key)
-        if name is None or Blackboard.activity_stream is not None:
+        """The value of `key`, or `default` when it is unset, without raising and catching a KeyError
+        for an unset key (for_each_element asks for /task/asbuilt every tick, unset until the first
+        placement)."""
+        name = self._stored_name(key)
+        if name is None:
             try:
                 return self.client.get(key)
             except KeyError:
                 return default
         return Blackboard.storage.get(name, default)
+
+    def _stored_name(self, key: str) -> str | None:
+        """The storage name to read `key` at directly, or None to read it through the client."""
+        return None if Blackboard.activity_stream is not None else self._names.get(key)
+
+
+def require_tick_once(cls: type, tick: Callable, tick_once: Callable) -> None:
+    """Refuse a class `cls` that overrides the `tick` it inherited but not its `tick_once`: the runner
+    ticks with `tick_once`, so such a class would tick one way under the runner, another with visitors."""
+    if cls.tick is not tick and cls.tick_once is tick_once:
+        raise TypeError(f"{cls.__name__} overrides tick(): it must override tick_once() the same way")
 
 
 class Skill(py_trees.behaviour.Behaviour):
@@ -216,8 +225,7 @@ class Skill(py_trees.behaviour.Behaviour):
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """A skill that changes how it ticks changes both ways of ticking (the runner uses `tick_once`)."""
         super().__init_subclass__(**kwargs)
-        if cls.tick is not Skill.tick and cls.tick_once is Skill.tick_once:
-            raise TypeError(f"{cls.__name__} overrides tick(): it must override tick_once() the same way")
+        require_tick_once(cls, Skill.tick, Skill.tick_once)
 
     def tick_once(self) -> None:
         """py_trees' `Behaviour.tick` without its generator (the runner ticks the tree without them,
