@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from perception.errors import FvtreeError, FvtreeErrors
+from fileio.errors import FvtreeError, FvtreeErrors
 
 
 class TreeError(FvtreeError):

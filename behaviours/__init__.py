@@ -1,5 +1,5 @@
 """One py_trees behaviour per tactile skill, registered by its YAML name. Skills of other installed
-packages register through entry points (group `fvtree.skills`, loaded by `assembly.plugins`)."""
+packages register through entry points (group `fvtree.skills`, loaded by `assembly.language.plugins`)."""
 
 from behaviours import (  # noqa: F401  (importing registers the skills)
     approach_plate,
@@ -24,7 +24,7 @@ from behaviours import (  # noqa: F401  (importing registers the skills)
     stir,
     vis_scan,
 )
-from behaviours.base import Param, ProgramSkill, Skill
-from behaviours.registry import SKILLS, register
+from behaviours.skill_kit.base import Param, ProgramSkill, Skill
+from behaviours.skill_kit.registry import SKILLS, register
 
 __all__ = ["SKILLS", "Param", "ProgramSkill", "Skill", "register"]

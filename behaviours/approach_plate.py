@@ -8,19 +8,10 @@ from __future__ import annotations
 import numpy as np
 from py_trees.common import Status
 
-from behaviours import keys
-from behaviours.base import Param, ProgramSkill
-from behaviours.registry import register
-from behaviours.transit import NoPath, other_elements, plate_box, transit_path
-
-
-def plate_of(element: dict, plates: dict) -> dict:
-    """The design plate an element props; KeyError naming both when it is missing."""
-    try:
-        return plates[element["plate"]]
-    except KeyError:
-        raise KeyError(f"element {element.get('id')!r} names plate {element.get('plate')!r}, "
-                       f"which the design model does not have") from None
+from behaviours.skill_kit import keys
+from behaviours.skill_kit.base import Param, ProgramSkill
+from behaviours.skill_kit.registry import register
+from behaviours.skill_kit.transit import NoPath, other_elements, plate_box, plate_of, transit_path
 
 
 def approach_points(plate: dict, at: float, side: float) -> list[tuple[str, np.ndarray]]:

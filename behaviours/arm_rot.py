@@ -9,11 +9,11 @@ import math
 import numpy as np
 from py_trees.common import Status
 
-from behaviours import keys
-from behaviours.base import Param, ProgramSkill, time_limit
-from behaviours.geometry import angle_between, rotation
-from behaviours.hand import hand_torque, object_area
-from behaviours.registry import register
+from behaviours.skill_kit import keys
+from behaviours.skill_kit.base import Param, ProgramSkill, time_limit
+from behaviours.skill_kit.geometry import angle_between, rotation
+from behaviours.skill_kit.hand import hand_torque, object_area
+from behaviours.skill_kit.registry import register
 
 
 @register

@@ -6,11 +6,11 @@ from __future__ import annotations
 import numpy as np
 from py_trees.common import Status
 
-from behaviours import keys
-from behaviours.base import Param, ProgramSkill
-from behaviours.model_files import UsesModel
-from behaviours.registry import register
-from behaviours.stir import MOVEMENTS, next_trial, stir_steps
+from behaviours.skill_kit import keys
+from behaviours.skill_kit.base import Param, ProgramSkill
+from behaviours.skill_kit.model_files import UsesModel
+from behaviours.skill_kit.registry import register
+from behaviours.skill_kit.stirring import MOVEMENTS, next_trial, stir_steps
 from perception.learning.features import columns
 from perception.learning.stir import classify
 

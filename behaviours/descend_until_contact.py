@@ -7,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 from py_trees.common import Status
 
-from behaviours import keys
-from behaviours.base import Param, ProgramSkill, magnitude, summed_force
-from behaviours.registry import register
+from behaviours.skill_kit import keys
+from behaviours.skill_kit.base import Param, ProgramSkill, magnitude, summed_force
+from behaviours.skill_kit.registry import register
 
 
 @register

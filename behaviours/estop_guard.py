@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from py_trees.common import Status
 
-from behaviours import keys
-from behaviours.base import Skill
-from behaviours.registry import register
+from behaviours.skill_kit import keys
+from behaviours.skill_kit.base import Skill
+from behaviours.skill_kit.registry import register
 
 
 @register

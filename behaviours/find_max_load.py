@@ -13,7 +13,7 @@ rather than placing it at a bad point.
 Slip is judged as a real sensor gives it: the pipeline's slip is image motion over the object,
 so the markers moving under a noisy load light it up as well. Each tick counts the slip beyond
 what the markers' own motion explains (`flow_gain`, `flow_saturation`: the pipeline's response
-measured by assembly/bench/perception/errors.py), and the grip counts as slipping only when the
+measured by assembly/bench/perception/error_model_fit.py), and the grip counts as slipping only when the
 median of that (both fingers) over the last `slip_ticks` ticks exceeds `slip`: a sliding element
 moves its texture on every tick, a load change only on a few. A grip
 that gives way slowly stays under the slip noise; it shows in the profile instead, as a load
@@ -27,12 +27,12 @@ from collections import deque
 import numpy as np
 from py_trees.common import Status
 
-from behaviours import hand, keys
-from behaviours.approach_plate import plate_of
-from behaviours.base import Param, ProgramSkill, magnitude, summed_force
-from behaviours.hand import slip_beyond_marker_flow
-from behaviours.load_search import locate_peak
-from behaviours.registry import register
+from behaviours.skill_kit import hand, keys
+from behaviours.skill_kit.base import Param, ProgramSkill, magnitude, summed_force
+from behaviours.skill_kit.hand import slip_beyond_marker_flow
+from behaviours.skill_kit.load_search import locate_peak
+from behaviours.skill_kit.registry import register
+from behaviours.skill_kit.transit import plate_of
 
 
 @register

@@ -6,11 +6,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from behaviours.base import Param
-from behaviours.control import MovingAverage, speed_ctrl, speed_ctrl_gain
-from behaviours.follow_me import TrackingSkill
-from behaviours.hand import hand_force
-from behaviours.registry import register
+from behaviours.skill_kit.base import Param
+from behaviours.skill_kit.control import MovingAverage, speed_ctrl, speed_ctrl_gain
+from behaviours.skill_kit.follow_me import TrackingSkill
+from behaviours.skill_kit.hand import hand_force
+from behaviours.skill_kit.registry import register
 
 
 @register

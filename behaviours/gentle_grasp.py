@@ -5,10 +5,10 @@ from __future__ import annotations
 
 from py_trees.common import Status
 
-from behaviours import keys
-from behaviours.base import Param, ProgramSkill, time_limit
-from behaviours.control import ForceChangeDetector
-from behaviours.registry import register
+from behaviours.skill_kit import keys
+from behaviours.skill_kit.base import Param, ProgramSkill, time_limit
+from behaviours.skill_kit.control import ForceChangeDetector
+from behaviours.skill_kit.registry import register
 from perception.wrench import marker_forces
 
 

@@ -25,12 +25,12 @@ from collections import deque
 import numpy as np
 from py_trees.common import Status
 
-from behaviours import keys
-from behaviours.base import Param, ProgramSkill, gone_share
-from behaviours.control import ForceChangeDetector, LeakyIntegrator
-from behaviours.geometry import rotation
-from behaviours.hand import hand_force, object_area, still_seen, total_slip
-from behaviours.registry import register
+from behaviours.skill_kit import keys
+from behaviours.skill_kit.base import Param, ProgramSkill, gone_share
+from behaviours.skill_kit.control import ForceChangeDetector, LeakyIntegrator
+from behaviours.skill_kit.geometry import rotation
+from behaviours.skill_kit.hand import hand_force, object_area, still_seen, total_slip
+from behaviours.skill_kit.registry import register
 from perception.wrench import marker_forces
 
 

@@ -7,10 +7,10 @@ from __future__ import annotations
 
 from py_trees.common import Status
 
-from behaviours import keys
-from behaviours.base import Param, ProgramSkill, gone_share
-from behaviours.hand import object_area, still_seen, total_slip
-from behaviours.registry import register
+from behaviours.skill_kit import keys
+from behaviours.skill_kit.base import Param, ProgramSkill, gone_share
+from behaviours.skill_kit.hand import object_area, still_seen, total_slip
+from behaviours.skill_kit.registry import register
 
 
 @register

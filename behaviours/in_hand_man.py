@@ -9,10 +9,10 @@ import math
 
 from py_trees.common import Status
 
-from behaviours import keys
-from behaviours.base import Param, ProgramSkill, time_limit
-from behaviours.hand import SteadyAngle, object_angle, total_slip
-from behaviours.registry import register
+from behaviours.skill_kit import keys
+from behaviours.skill_kit.base import Param, ProgramSkill, time_limit
+from behaviours.skill_kit.hand import SteadyAngle, object_angle, total_slip
+from behaviours.skill_kit.registry import register
 
 
 @register

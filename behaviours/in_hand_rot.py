@@ -16,11 +16,11 @@ import math
 
 from py_trees.common import Status
 
-from behaviours import keys
-from behaviours.base import Param, ProgramSkill, time_limit
-from behaviours.control import LeakyIntegrator
-from behaviours.hand import SteadyAngle, hand_torque, object_angle, total_slip
-from behaviours.registry import register
+from behaviours.skill_kit import keys
+from behaviours.skill_kit.base import Param, ProgramSkill, time_limit
+from behaviours.skill_kit.control import LeakyIntegrator
+from behaviours.skill_kit.hand import SteadyAngle, hand_torque, object_angle, total_slip
+from behaviours.skill_kit.registry import register
 
 
 @register

@@ -7,10 +7,10 @@ from __future__ import annotations
 import numpy as np
 from py_trees.common import Status
 
-from behaviours import keys
-from behaviours.base import Param, ProgramSkill
-from behaviours.geometry import rotation, top_down_grasp, translated
-from behaviours.registry import register
+from behaviours.skill_kit import keys
+from behaviours.skill_kit.base import Param, ProgramSkill
+from behaviours.skill_kit.geometry import rotation, top_down_grasp, translated
+from behaviours.skill_kit.registry import register
 
 
 @register

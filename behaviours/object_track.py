@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from behaviours.base import Param
-from behaviours.follow_me import TrackingSkill
-from behaviours.registry import register
+from behaviours.skill_kit.base import Param
+from behaviours.skill_kit.follow_me import TrackingSkill
+from behaviours.skill_kit.registry import register
 
 
 @register

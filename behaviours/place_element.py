@@ -8,11 +8,11 @@ from __future__ import annotations
 import numpy as np
 from py_trees.common import Status
 
-from behaviours import keys
-from behaviours.base import Param, ProgramSkill, time_limit
-from behaviours.control import leaky_open
-from behaviours.geometry import translated
-from behaviours.registry import register
+from behaviours.skill_kit import keys
+from behaviours.skill_kit.base import Param, ProgramSkill, time_limit
+from behaviours.skill_kit.control import leaky_open
+from behaviours.skill_kit.geometry import translated
+from behaviours.skill_kit.registry import register
 
 
 @register

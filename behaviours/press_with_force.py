@@ -9,12 +9,12 @@ from __future__ import annotations
 import numpy as np
 from py_trees.common import Status
 
-from behaviours import keys
-from behaviours.base import Param, ProgramSkill, time_limit
-from behaviours.control import MovingAverage
-from behaviours.geometry import rotation
-from behaviours.model_files import UsesModel
-from behaviours.registry import register
+from behaviours.skill_kit import keys
+from behaviours.skill_kit.base import Param, ProgramSkill, time_limit
+from behaviours.skill_kit.control import MovingAverage
+from behaviours.skill_kit.geometry import rotation
+from behaviours.skill_kit.model_files import UsesModel
+from behaviours.skill_kit.registry import register
 from perception.learning.features import tick_features
 from perception.learning.force import predict_force
 

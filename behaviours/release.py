@@ -10,11 +10,11 @@ from __future__ import annotations
 
 from py_trees.common import Status
 
-from behaviours import keys
-from behaviours.base import Param, ProgramSkill, gone_share, time_limit
-from behaviours.control import leaky_open
-from behaviours.hand import grip_squeeze, object_area, still_seen
-from behaviours.registry import register
+from behaviours.skill_kit import keys
+from behaviours.skill_kit.base import Param, ProgramSkill, gone_share, time_limit
+from behaviours.skill_kit.control import leaky_open
+from behaviours.skill_kit.hand import grip_squeeze, object_area, still_seen
+from behaviours.skill_kit.registry import register
 
 
 @register

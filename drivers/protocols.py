@@ -14,7 +14,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from perception.errors import FvtreeError
+from fileio.errors import FvtreeError
 
 
 class DriverFault(FvtreeError, RuntimeError):

@@ -22,9 +22,9 @@ import cv2
 import numpy as np
 import yaml
 
+from fileio.errors import FvtreeError
 from perception.config import FingerVisionConfig
 from perception.detect import make_detector, marker_mask
-from perception.errors import FvtreeError
 from perception.frames import FrameError, as_bgr
 from perception.marker_tracking import make_tracker, neighbour_index
 

@@ -14,10 +14,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from fileio.errors import FvtreeError
 from perception.calibration import MarkerMap, calibrate_markers
 from perception.config import FingerVisionConfig, load_config
 from perception.detect import make_detector
-from perception.errors import FvtreeError
 from perception.frames import FrameError, ImageQuality, as_bgr
 from perception.kalman import MarkerKalman
 from perception.late_markers import LateMarkers, NewMarkers

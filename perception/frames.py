@@ -8,8 +8,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from fileio.errors import FvtreeError
 from perception.config import HealthConfig
-from perception.errors import FvtreeError
 
 
 class FrameError(FvtreeError, ValueError):

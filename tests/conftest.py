@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from assembly.blackboard import clear_blackboard
+from assembly.run.perception_stage import clear_blackboard
 
 ROOT = Path(__file__).resolve().parents[1]
 TREES = ROOT / "trees"
@@ -40,7 +40,7 @@ def tree_file(tmp_path):
 def record_shortened(tmp_path_factory):
     """Record a demo tree `trees/<name>.yaml` with its repeat count cut from `times[0]` to
     `times[1]` (a shorter recording for tests); returns the loaded Recording."""
-    from assembly.recording import record
+    from assembly.dataset_recorder import record
     from perception.learning.dataset import Recording
 
     def recorded(name: str, times: tuple[int, int]) -> Recording:

@@ -21,10 +21,11 @@ from py_trees.common import Access, Status
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from assembly.design import DesignBridge, DesignModel
-from assembly.design_link.mqtt_bridge import attach
-from assembly.iteration import ForEachElement
-from behaviours import keys
+from assembly.design.bridge import DesignBridge
+from assembly.design.link.mqtt_bridge import attach
+from assembly.design.model import DesignModel
+from assembly.nodes.for_each_element import ForEachElement
+from behaviours.skill_kit import keys
 
 DESIGN = ROOT / "trees" / "design" / "six_bays.json"
 TICK = 0.02  # s of wall time per tick

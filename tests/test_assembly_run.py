@@ -8,18 +8,19 @@ import json
 import shutil
 from pathlib import Path
 
+import networkx as nx
 import numpy as np
 import pytest
 
-from assembly import design as design_module
 from assembly.cli import main
-from assembly.design import DesignModel
+from assembly.design.model import DesignModel
 from assembly.errors import TreeError
-from assembly.files import atomic_write_json
-from assembly.loader import build, load_tree
-from assembly.runner import Runner
-from assembly.session import run_tree
+from assembly.language.build import build
+from assembly.language.reader import load_tree
+from assembly.run.loop import Runner
+from assembly.run.session import run_tree
 from drivers.cell_builders import load_cell
+from fileio.json_files import atomic_write_json
 
 TREES = Path(__file__).resolve().parents[1] / "trees"
 ASSEMBLY = str(TREES / "assembly.yaml")
@@ -161,7 +162,7 @@ def test_interrupted_write_keeps_the_previous_as_built_model(tmp_path, monkeypat
     def crash(*args, **kwargs):
         raise KeyboardInterrupt  # the process is stopped in the middle of writing
 
-    monkeypatch.setattr(design_module.json, "dump", crash)
+    monkeypatch.setattr(json, "dump", crash)
     with pytest.raises(KeyboardInterrupt):
         atomic_write_json(path, {"nodes": [1, 2]})
     assert json.loads(path.read_text()) == {"nodes": [1]}
@@ -170,9 +171,9 @@ def test_interrupted_write_keeps_the_previous_as_built_model(tmp_path, monkeypat
 
 def test_build_order_follows_the_precedence_edges():
     data = json.loads((TREES / "design" / "two_bays.json").read_text())
-    assert DesignModel(design_module.nx.node_link_graph(data, edges="edges")).build_order() == ["E1", "E2"]
+    assert DesignModel(nx.node_link_graph(data, edges="edges")).build_order() == ["E1", "E2"]
     data["edges"] = [{"source": "E2", "target": "E1"}]
-    assert DesignModel(design_module.nx.node_link_graph(data, edges="edges")).build_order() == ["E2", "E1"]
+    assert DesignModel(nx.node_link_graph(data, edges="edges")).build_order() == ["E2", "E1"]
 
 
 def test_bad_cell_file_names_file_line_and_field(tmp_path, capsys):

@@ -9,13 +9,13 @@ from pathlib import Path
 import pytest
 import xmlschema
 
-from assembly.btcpp import export_tree, import_xml
-from assembly.btcpp.equivalence import differences, outline
 from assembly.cli import main
 from assembly.errors import TreeErrors
-from assembly.loader import load_tree
+from assembly.interop.btcpp import export_tree, import_xml
+from assembly.interop.btcpp.equivalence import differences, outline
+from assembly.language.reader import load_tree
 from assembly.testing import TreeHarness, mock_cell, touch
-from perception.errors import FvtreeError
+from fileio.errors import FvtreeError
 
 XSD = xmlschema.XMLSchema(str(Path(__file__).parent / "data" / "btcpp" / "bt4.xsd"))
 

@@ -9,9 +9,9 @@ from pathlib import Path
 import pytest
 import xmlschema
 
-from assembly.btcpp import export_tree, import_xml
-from assembly.btcpp.equivalence import differences
-from assembly.loader import load_tree
+from assembly.interop.btcpp import export_tree, import_xml
+from assembly.interop.btcpp.equivalence import differences
+from assembly.language.reader import load_tree
 from assembly.testing import TreeHarness
 from drivers.cell_builders import load_cell
 
@@ -58,7 +58,7 @@ def test_the_nodes_model_lists_every_skill_with_typed_ports(tmp_path):
     xml, _ = round_trip(ROOT / "trees" / "assembly.yaml", tmp_path)
     model = XSD.to_dict(str(xml))["TreeNodesModel"]
     actions = {a["@ID"]: a for a in model["Action"]}
-    from behaviours.registry import SKILLS
+    from behaviours.skill_kit.registry import SKILLS
 
     assert set(SKILLS) <= set(actions)
     ports = {p["@name"]: p for p in actions["gentle_grasp"]["input_port"]}

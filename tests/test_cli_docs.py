@@ -9,8 +9,9 @@ import jsonschema
 import yaml
 
 from assembly.cli import main
-from assembly.schema import describe_skills, tree_schema
-from behaviours.registry import SKILLS
+from assembly.language.catalogue import describe_skills
+from assembly.language.schema import tree_schema
+from behaviours.skill_kit.registry import SKILLS
 
 TREES = Path(__file__).resolve().parents[1] / "trees"
 

@@ -1,4 +1,4 @@
-"""Ticking without generators (`assembly.composites`, `Skill.tick_once`) does what py_trees' generator
+"""Ticking without generators (`assembly.nodes.composites`, `Skill.tick_once`) does what py_trees' generator
 ticks do: on random trees of every kind the YAML language builds, with leaves answering scripted
 statuses, each tick gives every node the same status, feedback and current child, and the leaves
 the same initialise, update and terminate calls in the same order."""
@@ -11,10 +11,10 @@ import py_trees
 import pytest
 from py_trees.common import Status
 
-from assembly import composites
-from assembly.decorators import CellTimeout, StatusMap
-from assembly.runner import BehaviourTree
-from behaviours.base import Skill
+from assembly.nodes import composites, decorators
+from assembly.nodes.decorators import CellTimeout, StatusMap
+from assembly.run.loop import BehaviourTree
+from behaviours.skill_kit.base import Skill
 
 STATUSES = (Status.RUNNING, Status.RUNNING, Status.SUCCESS, Status.FAILURE)
 
@@ -62,10 +62,10 @@ class Clock:
 # Kind -> (reference class, class ticked without generators) of the composites and decorators.
 COMPOSITES = {"sequence": (py_trees.composites.Sequence, composites.Sequence),
               "selector": (py_trees.composites.Selector, composites.Selector)}
-DECORATORS = {"pass_through": (py_trees.decorators.PassThrough, composites.PassThrough),
-              "retry": (py_trees.decorators.Retry, composites.Retry),
-              "repeat": (py_trees.decorators.Repeat, composites.Repeat),
-              "inverter": (py_trees.decorators.Inverter, composites.Inverter),
+DECORATORS = {"pass_through": (py_trees.decorators.PassThrough, decorators.PassThrough),
+              "retry": (py_trees.decorators.Retry, decorators.Retry),
+              "repeat": (py_trees.decorators.Repeat, decorators.Repeat),
+              "inverter": (py_trees.decorators.Inverter, decorators.Inverter),
               "status_map": (StatusMap, StatusMap), "timeout": (CellTimeout, CellTimeout),
               "guard": (py_trees.decorators.EternalGuard, py_trees.decorators.EternalGuard)}
 
@@ -143,7 +143,7 @@ def test_ticking_without_generators_matches_py_trees(seed):
 def test_generator_ticks_are_py_trees_own():
     assert composites.Sequence.tick is py_trees.composites.Sequence.tick
     assert composites.Selector.tick is py_trees.composites.Selector.tick
-    assert composites.Retry.tick is py_trees.decorators.Decorator.tick
+    assert decorators.Retry.tick is py_trees.decorators.Decorator.tick
 
 
 def test_a_node_changing_how_it_ticks_changes_both_ways():
@@ -151,7 +151,7 @@ def test_a_node_changing_how_it_ticks_changes_both_ways():
         yield self
 
     with pytest.raises(TypeError, match="tick_once"):
-        type("OwnTick", (composites.DirectDecorator, py_trees.decorators.Decorator), {"tick": tick})
+        type("OwnTick", (decorators.DirectDecorator, py_trees.decorators.Decorator), {"tick": tick})
     with pytest.raises(TypeError, match="tick_once"):
         type("OwnTick", (Skill,), {"tick": tick})
 

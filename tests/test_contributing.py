@@ -7,9 +7,9 @@ import numpy as np
 from py_trees.common import Status
 
 from assembly.testing import TreeHarness, mock_cell
-from behaviours import keys
-from behaviours.base import Param, ProgramSkill
-from behaviours.registry import SKILLS
+from behaviours.skill_kit import keys
+from behaviours.skill_kit.base import Param, ProgramSkill
+from behaviours.skill_kit.registry import SKILLS
 from drivers.cell import Cell
 from drivers.cell_builders import BUILDERS, CellRequest, load_cell
 from drivers.protocols import World

@@ -14,9 +14,9 @@ from pathlib import Path
 import pytest
 from mqtt_broker import mqtt_broker_fixture, wait_for  # noqa: F401 - the fixture
 
-from assembly.design import DesignModel
-from assembly.design_link.coordinator import Coordinator
-from assembly.design_link.transport import LinkTransport
+from assembly.design.link.coordinator import Coordinator
+from assembly.design.link.transport import LinkTransport
+from assembly.design.model import DesignModel
 
 ROOT = Path(__file__).resolve().parents[1]
 DESIGN = ROOT / "trees" / "design" / "six_bays.json"

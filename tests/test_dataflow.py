@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from assembly.errors import TreeErrors
-from assembly.loader import load_tree
+from assembly.language.reader import load_tree
 
 TREES = Path(__file__).resolve().parents[1] / "trees"
 DESIGN = TREES / "design" / "two_bays.json"

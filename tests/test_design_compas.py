@@ -14,8 +14,8 @@ from compas.geometry import Box, Frame
 from scipy.spatial.transform import Rotation
 
 from assembly.cli import main
-from assembly.design import DesignModel
-from assembly.design_link import compas_data
+from assembly.design.link import compas_data
+from assembly.design.model import DesignModel
 from assembly.errors import TreeError
 
 DESIGNS = Path(__file__).resolve().parents[1] / "trees" / "design"

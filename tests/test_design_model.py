@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from assembly.design import DesignModel
+from assembly.design.model import DesignModel
 from assembly.errors import TreeError
 
 DESIGN_FILE = Path(__file__).resolve().parents[1] / "trees" / "design" / "two_bays.json"
@@ -44,10 +44,10 @@ SCHEMA_FILE = DESIGN_FILE.parent / "design.schema.json"
 
 def test_the_published_schema_is_current_and_accepts_the_shipped_design():
     jsonschema = pytest.importorskip("jsonschema")
-    from assembly.design import design_schema
+    from assembly.design.model import design_schema
 
     assert json.loads(SCHEMA_FILE.read_text()) == design_schema(), (
-        "regenerate: python -c 'import json; from assembly.design import design_schema; "
+        "regenerate: python -c 'import json; from assembly.design.model import design_schema; "
         "print(json.dumps(design_schema(), indent=1))' > trees/design/design.schema.json")
     jsonschema.Draft202012Validator(design_schema()).validate(json.loads(DESIGN_FILE.read_text()))
 

@@ -1,4 +1,4 @@
-"""`fvtree export RUN_DIR` (assembly/observe/mcap_export.py): a run's MCAP file read back with the
+"""`fvtree export RUN_DIR` (assembly/interop/mcap/export.py): a run's MCAP file read back with the
 `mcap` reader: topics, schema names, message counts, log times from the cell clock, and values
 against the run's transition log, event log and summary; camera frames of a pixel-mode run; an old
 run directory without a recording; and the errors for what is not a run."""
@@ -17,10 +17,10 @@ import pytest
 from jsonschema import Draft202012Validator
 from mcap.reader import make_reader
 
-from assembly.blackboard import clear_blackboard
 from assembly.cli import main
 from assembly.observe.readback import read_recording
-from assembly.session import run_tree
+from assembly.run.perception_stage import clear_blackboard
+from assembly.run.session import run_tree
 
 TREES = Path(__file__).resolve().parents[1] / "trees"
 PERIOD_NS = 1e9 / 30  # the demo trees tick at 30 Hz

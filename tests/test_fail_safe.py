@@ -14,11 +14,12 @@ from pathlib import Path
 
 import pytest
 
-from assembly import design as design_module
 from assembly.cli import main
-from assembly.loader import build, load_tree
-from assembly.runner import Runner
-from assembly.session import run_tree
+from assembly.design import bridge as bridge_module
+from assembly.language.build import build
+from assembly.language.reader import load_tree
+from assembly.run.loop import Runner
+from assembly.run.session import run_tree
 from behaviours.vis_scan import VisScan
 from drivers.cell_builders import load_cell
 
@@ -144,8 +145,8 @@ def test_sigterm_while_the_run_is_set_up_closes_the_cell_like_ctrl_c(tmp_path, m
         signal.raise_signal(signal.SIGTERM)  # arrives while the session sets the run up
         return real_build(doc)
 
-    monkeypatch.setattr("assembly.session.load_cell", watched_cell)
-    monkeypatch.setattr("assembly.session.build", build_then_sigterm)
+    monkeypatch.setattr("assembly.run.session.load_cell", watched_cell)
+    monkeypatch.setattr("assembly.run.session.build", build_then_sigterm)
     before = signal.getsignal(signal.SIGTERM)
     assert main(["run", ASSEMBLY, "--runs-dir", str(tmp_path), "--no-plots"]) == 130
     assert closed == [True] and signal.getsignal(signal.SIGTERM) is before
@@ -154,13 +155,13 @@ def test_sigterm_while_the_run_is_set_up_closes_the_cell_like_ctrl_c(tmp_path, m
 def test_a_failed_as_built_write_halts_the_run_with_the_placement_in_the_log(tmp_path, monkeypatch):
     writes = []
 
-    def read_only(path, data, original=design_module.atomic_write_json):
+    def read_only(path, data, original=bridge_module.atomic_write_json):
         writes.append(path)
         if len(writes) > 1:  # the run directory turns read-only after the start
             raise PermissionError(13, "Permission denied", str(path))
         original(path, data)
 
-    monkeypatch.setattr(design_module, "atomic_write_json", read_only)
+    monkeypatch.setattr(bridge_module, "atomic_write_json", read_only)
     summary = run_tree(ASSEMBLY, runs_dir=tmp_path, quiet=True, plots=False)
     assert summary["status"] == "CRASHED" and "cannot write the as-built model" in summary["message"]
     assert "the placing record of E1 is in" in summary["message"] and summary["where"].endswith("/elements")
@@ -171,19 +172,19 @@ def test_a_failed_as_built_write_halts_the_run_with_the_placement_in_the_log(tmp
 
 
 def test_when_the_event_log_fails_too_the_placement_goes_to_stderr(tmp_path, monkeypatch, capsys):
-    from assembly import files
+    from fileio import json_files
 
     def fail(*args, **kwargs):
         raise PermissionError(13, "Permission denied")
 
-    original = design_module.DesignBridge.record_placing
+    original = bridge_module.DesignBridge.record_placing
 
     def record_placing(self, *args):
-        monkeypatch.setattr(design_module, "atomic_write_json", fail)
-        monkeypatch.setattr(files, "append_json_line", fail)
+        monkeypatch.setattr(bridge_module, "atomic_write_json", fail)
+        monkeypatch.setattr(json_files, "append_json_line", fail)
         original(self, *args)
 
-    monkeypatch.setattr(design_module.DesignBridge, "record_placing", record_placing)
+    monkeypatch.setattr(bridge_module.DesignBridge, "record_placing", record_placing)
     summary = run_tree(ASSEMBLY, runs_dir=tmp_path, quiet=True, plots=False)
     err = capsys.readouterr().err
     assert summary["status"] == "CRASHED" and "the placing record of E1 is in stderr" in summary["message"]
@@ -194,7 +195,7 @@ def test_when_the_event_log_fails_too_the_placement_goes_to_stderr(tmp_path, mon
 
 KILL_AT = """
 import os, signal, sys
-from assembly import runner
+from assembly.run import loop as runner
 from assembly.cli import main
 
 at = float(sys.argv.pop(1))

@@ -14,9 +14,10 @@ import yaml
 sys.path.insert(0, str(Path(__file__).resolve().parent / "drivers"))
 from drivers_testkit import Emulator, emulating, next_host, wait_until
 
-from assembly.loader import build, load_tree
-from assembly.runner import Runner
-from assembly.supervisor import Supervision
+from assembly.language.build import build
+from assembly.language.reader import load_tree
+from assembly.run.loop import Runner
+from assembly.run.supervisor import Supervision
 from assembly.testing import touch
 from drivers.cell_builders import load_cell
 from drivers.cell_file import CELLS_DIR

@@ -105,8 +105,8 @@ class Workspace:
 
 def loaders() -> dict[str, Callable[[Path], object]]:
     """The loader of each kind of input, in the layout of the code on sys.path."""
-    from assembly.design import DesignModel
-    from assembly.loader import load_tree
+    from assembly.design.model import DesignModel
+    from assembly.language.reader import load_tree
 
     try:
         from drivers.cell_builders import validate as check_cell
@@ -169,7 +169,7 @@ if given is not None:
 
     def check(workspace: Workspace, loader: str, seed: str, ops) -> None:
         """The input loads, or raises an FvtreeError naming the file, within TIMEOUT_S."""
-        from perception.errors import FvtreeError, FvtreeErrors
+        from fileio.errors import FvtreeError, FvtreeErrors
 
         data = mutate(workspace.seed(loader, seed), ops)
         try:

@@ -4,7 +4,7 @@ compiled, with the same values as numpy."""
 import numpy as np
 import pytest
 
-from behaviours.hand import slip_beyond_marker_flow
+from behaviours.skill_kit.hand import slip_beyond_marker_flow
 from perception.state import MarkerField, ObjectInfo, TactileState
 
 

@@ -10,7 +10,8 @@ import pytest
 
 from assembly.cli import main
 from assembly.errors import TreeErrors
-from assembly.loader import build, load_tree
+from assembly.language.build import build
+from assembly.language.reader import load_tree
 
 TREES = Path(__file__).resolve().parents[1] / "trees"
 

@@ -58,7 +58,7 @@ def test_the_paper_split_holds_out_48_of_120_trials_stratified():
 @pytest.fixture(scope="module")
 def another_session(tmp_path_factory) -> Recording:
     """Eight trials per bowl recorded in session 1 (another batch of each substance, another skin)."""
-    from assembly.recording import record
+    from assembly.dataset_recorder import record
 
     tree = tmp_path_factory.mktemp("session1") / "record_stir.yaml"
     tree.write_text((TREES / "record_stir.yaml").read_text().replace("times: 40", "times: 8"))

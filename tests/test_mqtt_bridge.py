@@ -22,12 +22,13 @@ from mqtt_broker import mqtt_broker_fixture, wait_for  # noqa: F401 - the fixtur
 from py_trees.common import Access, Status
 
 from assembly.cli import main
-from assembly.design import DesignBridge, DesignModel
-from assembly.design_link.compas_data import from_graph, pose_to_frame
-from assembly.design_link.mqtt_bridge import MqttLink
-from assembly.design_link.transport import LinkTransport
-from assembly.iteration import ForEachElement
-from behaviours import keys
+from assembly.design.bridge import DesignBridge
+from assembly.design.link.compas_data import from_graph, pose_to_frame
+from assembly.design.link.mqtt_bridge import MqttLink
+from assembly.design.link.transport import LinkTransport
+from assembly.design.model import DesignModel
+from assembly.nodes.for_each_element import ForEachElement
+from behaviours.skill_kit import keys
 
 ROOT = Path(__file__).resolve().parents[1]
 DESIGN = ROOT / "trees" / "design" / "two_bays.json"

@@ -1,6 +1,6 @@
 """The node-kind table: how to add a node kind, and that every part of the language reads the table.
 
-A new kind is one entry in `assembly.node_kinds.NODE_KINDS`. The test below registers a
+A new kind is one entry in `assembly.language.kinds.NODE_KINDS`. The test below registers a
 `succeeder` (its child's failure becomes success) and shows that the one entry is enough for the
 validator, `build()`, ticking, `tree_schema()` and `fvtree show`.
 """
@@ -16,12 +16,13 @@ import yaml
 from py_trees.common import Status
 
 from assembly.errors import TreeErrors
-from assembly.language import NodeKind
-from assembly.loader import build, load_tree
-from assembly.node_kinds import NODE, NODE_KINDS
-from assembly.schema import tree_schema
-from assembly.show import render
-from behaviours.registry import SKILLS
+from assembly.language.build import build
+from assembly.language.kinds import NODE, NODE_KINDS
+from assembly.language.reader import load_tree
+from assembly.language.schema import tree_schema
+from assembly.language.validator import NodeKind
+from assembly.outcome.outline import render
+from behaviours.skill_kit.registry import SKILLS
 
 SUCCEEDER = NodeKind(
     doc="succeeds when its child fails (a failing check that must not stop the sequence)",

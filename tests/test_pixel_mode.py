@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from assembly.bench.perception.recording import first_element_only
-from assembly.session import run_tree
+from assembly.bench.perception.pixel_runs import first_element_only
+from assembly.run.session import run_tree
 
 TREES = Path(__file__).resolve().parents[1] / "trees"
 

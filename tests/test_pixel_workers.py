@@ -19,11 +19,12 @@ import numpy as np
 import pytest
 import yaml
 
-from assembly.blackboard import clear_blackboard
-from assembly.loader import build, load_tree
+from assembly.language.build import build
+from assembly.language.reader import load_tree
 from assembly.observe.recorder import JPEG_QUALITY
-from assembly.runner import Runner
-from assembly.supervisor import Supervision
+from assembly.run.loop import Runner
+from assembly.run.perception_stage import clear_blackboard
+from assembly.run.supervisor import Supervision
 from drivers.camera_frames import frames_of
 from drivers.cell_builders import load_cell
 from drivers.cell_file import CellFileError, resolve_cell_path

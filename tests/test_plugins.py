@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from assembly.plugins import PluginError, add_scenes, add_skills
-from behaviours.base import ProgramSkill
+from assembly.language.plugins import PluginError, add_scenes, add_skills
+from behaviours.skill_kit.base import ProgramSkill
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "fvtree_plugin_example"

@@ -19,7 +19,7 @@ import pytest
 from assembly.observe.readback import read_recording
 from assembly.observe.scene3d import ELEMENT_COLOURS
 from assembly.observe.tree_graph import STATUS_COLOURS
-from assembly.session import run_tree
+from assembly.run.session import run_tree
 
 ROOT = Path(__file__).resolve().parents[1]
 ASSEMBLY = ROOT / "trees" / "assembly.yaml"
@@ -29,7 +29,7 @@ FINGER_ENTITIES = ("markers", "force", "torque", "slip", "object", "health")
 @pytest.fixture(scope="module")
 def assembly_run(tmp_path_factory) -> tuple[dict, Path, dict]:
     """One recorded simulated assembly: (summary, run directory, recording read back)."""
-    from assembly.blackboard import clear_blackboard
+    from assembly.run.perception_stage import clear_blackboard
 
     clear_blackboard()
     summary = run_tree(str(ASSEMBLY), runs_dir=tmp_path_factory.mktemp("runs"), plots=False, quiet=True)

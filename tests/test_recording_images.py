@@ -10,9 +10,9 @@ import cv2
 import numpy as np
 import pytest
 
-from assembly.blackboard import clear_blackboard
 from assembly.observe.readback import read_recording
-from assembly.session import run_tree
+from assembly.run.perception_stage import clear_blackboard
+from assembly.run.session import run_tree
 
 HOLD = Path(__file__).resolve().parents[1] / "trees" / "hold.yaml"
 SECONDS = 3.0  # of cell time: 90 ticks at 30 Hz

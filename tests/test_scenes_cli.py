@@ -10,7 +10,7 @@ import jsonschema
 import pytest
 
 from assembly.cli import main
-from assembly.schema import tree_schema
+from assembly.language.schema import tree_schema
 from drivers.sim.scenes import SCENES
 
 TREES = Path(__file__).resolve().parents[1] / "trees"

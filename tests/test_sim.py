@@ -71,7 +71,7 @@ def test_rotation_helpers_round_trip():
         assert np.allclose(rotvec_to_matrix(matrix_to_rotvec(m)), m, atol=1e-7)
 
 
-# ---- signals mode: the real pipeline's measured errors (drivers/sim/models/pipeline_errors.py) ----
+# ---- signals mode: the real pipeline's measured errors (drivers/sim/models/pipeline_error_model.py) ----
 
 def _held(shear=(0.0, 0.0), slip: float = 0.0):
     from drivers.sim.models.fingervision_model import FingerContact
@@ -87,7 +87,7 @@ def _errors_model(seed: int = 1):
 
 
 def test_signals_mode_markers_jitter_and_drop_out_as_the_pipeline_measured():
-    from drivers.sim.models.pipeline_errors import PipelineErrors
+    from drivers.sim.models.pipeline_error_model import PipelineErrors
 
     e = PipelineErrors()
     model, exact = _errors_model()
@@ -102,7 +102,7 @@ def test_signals_mode_markers_jitter_and_drop_out_as_the_pipeline_measured():
 
 
 def test_the_error_model_lags_markers_as_a_first_order_filter():
-    from drivers.sim.models.pipeline_errors import ErrorModel, PipelineErrors
+    from drivers.sim.models.pipeline_error_model import ErrorModel, PipelineErrors
     from perception.state import MarkerField
 
     model = ErrorModel(PipelineErrors(lag_alpha=0.4, noise_px=0.0, lossy_share=0.0), np.random.default_rng(0),
@@ -118,7 +118,7 @@ def test_the_error_model_lags_markers_as_a_first_order_filter():
 
 
 def test_signals_mode_object_and_slip_carry_the_pipeline_errors():
-    from drivers.sim.models.pipeline_errors import PipelineErrors
+    from drivers.sim.models.pipeline_error_model import PipelineErrors
 
     e = PipelineErrors()
     model, _ = _errors_model(seed=2)

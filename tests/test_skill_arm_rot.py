@@ -8,7 +8,7 @@ import math
 import pytest
 
 from assembly.testing import TreeHarness, touch
-from behaviours.geometry import angle_between
+from behaviours.skill_kit.geometry import angle_between
 from drivers.cell_builders import load_cell
 
 

@@ -18,15 +18,16 @@ import pytest
 from py_trees.blackboard import ActivityStream, Blackboard
 from py_trees.common import Status
 
-from assembly.blackboard import clear_blackboard
-from assembly.design import DesignModel
+from assembly.design.model import DesignModel
 from assembly.errors import TreeErrors
-from assembly.loader import load_tree
-from assembly.schema import describe_skills, tree_schema
+from assembly.language.catalogue import describe_skills
+from assembly.language.reader import load_tree
+from assembly.language.schema import tree_schema
+from assembly.run.perception_stage import clear_blackboard
 from assembly.testing import TreeHarness, mock_cell, touch
-from behaviours import keys
-from behaviours.base import Param, Skill
-from behaviours.registry import SKILLS
+from behaviours.skill_kit import keys
+from behaviours.skill_kit.base import Param, Skill
+from behaviours.skill_kit.registry import SKILLS
 
 ROOT = Path(__file__).resolve().parents[1]
 DESIGN = DesignModel.load(ROOT / "trees" / "design" / "two_bays.json")

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from assembly.testing import TreeHarness, touch
-from behaviours.control import speed_ctrl
+from behaviours.skill_kit.control import speed_ctrl
 from drivers.cell_builders import load_cell
 
 GRIP = 10.0  # N squeeze on each pad

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from assembly.testing import TreeHarness
-from behaviours.stir import MOVEMENTS
+from behaviours.skill_kit.stirring import MOVEMENTS
 
 
 def one_skill(params: str = "{}", times: int = 1) -> TreeHarness:

@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from assembly.design import DesignModel
+from assembly.design.model import DesignModel
 from assembly.testing import TreeHarness, mock_cell, touch
-from behaviours.geometry import angle_between
+from behaviours.skill_kit.geometry import angle_between
 from drivers.cell_builders import load_cell
 
 DESIGN = DesignModel.load(Path(__file__).resolve().parents[1] / "trees" / "design" / "two_bays.json")
@@ -464,7 +464,7 @@ def test_a_heavy_plate_fails_naming_the_element_without_a_regrasp(tmp_path):
 def test_find_max_load_stops_the_scan_when_the_arm_feels_too_much_force(tmp_path):
     """The arm's force readback guards the scan too: with a 5 N ceiling the first plate's load
     stops it, and the element is not placed."""
-    from assembly.session import run_tree
+    from assembly.run.session import run_tree
 
     trees = Path(__file__).resolve().parents[1] / "trees"
     (tmp_path / "subtrees").mkdir()
@@ -482,7 +482,7 @@ def test_find_max_load_stops_the_scan_when_the_arm_feels_too_much_force(tmp_path
 
 
 def test_a_scan_shorter_than_the_smoothing_window_still_gives_a_peak():
-    from behaviours.load_search import locate_peak
+    from behaviours.skill_kit.load_search import locate_peak
 
     x = np.linspace(0.0, 0.02, 23)  # 23 samples over 2 cm, smoothing over 3 cm
     peak = locate_peak(x, 1.0 - (x - 0.01) ** 2, smooth_window=0.03, fit_half_width=0.08)

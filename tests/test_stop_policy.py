@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import json
 
-from assembly.loader import build, load_tree
-from assembly.runner import Runner
+from assembly.language.build import build
+from assembly.language.reader import load_tree
+from assembly.run.loop import Runner
 from assembly.testing import mock_cell
 
 MOVE = "{{skill: move_to, name: {name}, params: {{offset: [{dx}, 0, 0], speed: 0.1}}}}"  # 1 s per 0.1 m

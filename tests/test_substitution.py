@@ -10,8 +10,8 @@ import pytest
 
 from assembly.cli import main
 from assembly.errors import TreeErrors
-from assembly.loader import load_tree
-from assembly.substitution import SubstitutionError, load_rules, parse_rule
+from assembly.language.reader import load_tree
+from assembly.language.substitution import SubstitutionError, load_rules, parse_rule
 from assembly.testing import TreeHarness
 from drivers.cell_builders import load_cell
 

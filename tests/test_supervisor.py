@@ -12,9 +12,10 @@ import numpy as np
 import pytest
 
 from assembly.cli import main
-from assembly.loader import build, load_tree
-from assembly.runner import Runner
-from assembly.supervisor import Supervision
+from assembly.language.build import build
+from assembly.language.reader import load_tree
+from assembly.run.loop import Runner
+from assembly.run.supervisor import Supervision
 from assembly.testing import mock_cell, touch
 from drivers.cell_builders import load_cell
 from drivers.cell_file import CellFileError

@@ -1,4 +1,4 @@
-"""The carried element's transit path (behaviours/transit.py, approach_plate): over what lies on
+"""The carried element's transit path (behaviours/skill_kit/transit.py, approach_plate): over what lies on
 the table, around plates and standing elements, never under a plate it does not prop; and the
 assembly scene's truth catching a held element that pushes a plate anyway."""
 
@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from assembly.design import DesignModel
+from assembly.design.model import DesignModel
 from assembly.testing import TreeHarness, mock_cell
-from behaviours.transit import Box, NoPath, element_box, plate_box, transit_path
+from behaviours.skill_kit.transit import Box, NoPath, element_box, plate_box, transit_path
 from drivers.cell_builders import load_cell
 from drivers.sim.models.plate import BeamPlate
 

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from assembly.cli import main
-from assembly.session import run_tree
-from assembly.verdict import TASK_FAILED
+from assembly.outcome.verdict import TASK_FAILED
+from assembly.run.session import run_tree
 from drivers.sim.scenes.assembly import AssemblyScene
 
 TREES = Path(__file__).resolve().parents[1] / "trees"

@@ -23,7 +23,7 @@ import pytest
 
 from assembly.observe.readback import read_recording
 from assembly.observe.replay import recording_from_logs, run_recordings, start_viewer
-from assembly.session import run_tree
+from assembly.run.session import run_tree
 
 ROOT = Path(__file__).resolve().parents[1]
 ASSEMBLY = ROOT / "trees" / "assembly.yaml"
@@ -94,7 +94,7 @@ def test_an_old_run_directory_opens_from_its_logs(short_run, tmp_path):
 
 
 def test_not_a_run_directory_is_a_located_error(tmp_path):
-    from perception.errors import FvtreeError
+    from fileio.errors import FvtreeError
 
     with pytest.raises(FvtreeError, match="not a run directory"):
         run_recordings(tmp_path)
@@ -137,7 +137,7 @@ def test_live_run_renders_in_headless_chromium(tmp_path):
 
 
 def test_tree_graph_is_laid_out_top_down():
-    from assembly.loader import load_tree
+    from assembly.language.reader import load_tree
     from assembly.observe.tree_graph import X_STEP, Y_STEP, tree_graph
 
     doc = load_tree(ASSEMBLY)

@@ -9,8 +9,8 @@ import pytest
 
 from assembly.cli import main
 from assembly.observe.readback import read_recording
+from fileio.errors import FvtreeError
 from perception.calibration import MarkerMap
-from perception.errors import FvtreeError
 
 ROOT = Path(__file__).resolve().parents[1]
 CLIP = ROOT.parent / "shared" / "data" / "fv_demo" / "cam1_0002.m4v"

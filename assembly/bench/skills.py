@@ -17,10 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
-from assembly.blackboard import clear_blackboard
-from assembly.loader import build, load_tree
-from assembly.recording import record
-from assembly.runner import Runner
+from assembly.dataset_recorder import record
+from assembly.language.build import build
+from assembly.language.reader import load_tree
+from assembly.run.loop import Runner
+from assembly.run.perception_stage import clear_blackboard
 from drivers.cell_builders import load_cell
 from perception.learning.dataset import Recording
 

@@ -24,13 +24,14 @@ from pathlib import Path
 
 import numpy as np
 
-from assembly.blackboard import clear_blackboard
-from assembly.design import DesignBridge
-from assembly.loader import build, load_tree
+from assembly.design.bridge import DesignBridge
+from assembly.language.build import build
+from assembly.language.reader import load_tree
 from assembly.observe.recorder import run_recorder
-from assembly.run_dir import ASBUILT_FILE
-from assembly.runner import Runner
-from assembly.supervisor import Supervision
+from assembly.run.loop import Runner
+from assembly.run.perception_stage import clear_blackboard
+from assembly.run.run_dir import ASBUILT_FILE
+from assembly.run.supervisor import Supervision
 from drivers.cell_builders import load_cell
 
 TREE = Path(__file__).resolve().parents[2] / "trees" / "assembly.yaml"

@@ -33,14 +33,14 @@ import rerun as rr
 from py_trees.blackboard import Blackboard
 from py_trees.common import Status
 
-from assembly.design import DesignModel
-from assembly.loader import BuiltTree
+from assembly.design.model import DesignModel
+from assembly.language.build import BuiltTree
 from assembly.observe import IMAGE_HZ
 from assembly.observe.columns import Sparse, TickColumns, column, scalars_column
 from assembly.observe.layout import default_blueprint
 from assembly.observe.scene3d import element_box, plate_boxes, quaternions
 from assembly.observe.tree_graph import tree_graph
-from behaviours import keys
+from behaviours.skill_kit import keys
 from drivers.camera_frames import frames_of
 from drivers.cell import Cell
 from perception.state import FINGERS

@@ -25,8 +25,8 @@ import rerun as rr
 from assembly.observe.layout import default_blueprint
 from assembly.observe.recorder import NODE_RADIUS
 from assembly.observe.tree_graph import tree_graph
-from assembly.stop_policy import sigterm_raises_terminated
-from perception.errors import FvtreeError
+from assembly.signals import sigterm_raises_terminated
+from fileio.errors import FvtreeError
 
 HOST = "127.0.0.1"
 GRPC_PORT, WEB_PORT = 9876, 9090
@@ -113,7 +113,7 @@ def run_recordings(run_dir: Path) -> list[Path]:
 def recording_from_logs(run_dir: Path, out: Path) -> Path:
     """A recording of what an old run directory holds: the tree graph (when its tree file can still
     be read) coloured by the transition log, the transitions, the events and the summary."""
-    from assembly.loader import load_tree  # the tree file of the run, if it is still there
+    from assembly.language.reader import load_tree  # the tree file of the run, if it is still there
 
     stream = rr.RecordingStream("fvtree", recording_id=f"{run_dir.name}/from_logs")
     stream.set_sinks(rr.FileSink(str(out)), default_blueprint=default_blueprint())

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import rerun as rr
 
-from assembly.design import DesignModel
+from assembly.design.model import DesignModel
 
 PLATE_THICKNESS = 0.01  # m, drawn only
 PLATE_COLOUR = (120, 120, 140, 160)

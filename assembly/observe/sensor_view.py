@@ -16,7 +16,7 @@ import rerun.blueprint as rrb
 from assembly.observe.replay import start_viewer
 from drivers.clock import WallClock
 from drivers.hardware.camera import CameraConfig, OpenCvCamera
-from perception.errors import FvtreeError
+from fileio.errors import FvtreeError
 from perception.fingervision import FingerVision
 from perception.state import TactileState
 

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from assembly.language import NodeSpec
+from assembly.language.validator import NodeSpec
 
 STATUS_COLOURS = {  # RGBA; the colours of py_trees' own dot renderings, status by status
     "INVALID": (150, 150, 150, 255),

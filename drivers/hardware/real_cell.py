@@ -4,7 +4,7 @@ Modbus, both behind the safety layer, OpenCV cameras, and the FingerVision perce
 Sections: `arm` (UrConfig fields, `driver: ur_rtde`), `gripper` (RobotiqConfig fields, `driver:
 robotiq_modbus`, `activate`), `cameras` (finger -> CameraConfig fields), `perception` (`source:
 fingervision | none`, `preset`, `marker_maps`, `stale_after`, `calibration_timeout`), `safety`
-(SafetyLimits fields), `supervision` (read by the run's cell supervisor, assembly/supervisor.py),
+(SafetyLimits fields), `supervision` (read by the run's cell supervisor, assembly/run/supervisor.py),
 and for cells of loopback emulators only `emulation` (`time_scale`, back-door ports, `pad_stiffness`). The whole file is checked before any device is touched. See
 drivers/cells/ur_robotiq.yaml and drivers/cells/emulated.yaml; a cell whose perception is a shadow
 world (drivers/cells/emulated_shadow.yaml) is built by drivers/emulators/shadow.py on top of this.

@@ -2,7 +2,7 @@
 and a gripper with compliant gels, both behind the real safety layer, the scene around them and its
 FingerVision perception (from contact signals carrying the real pipeline's measured errors, or
 rendered frames through the real pipeline). The
-file's `supervision` section is read by the run's cell supervisor (assembly/supervisor.py)."""
+file's `supervision` section is read by the run's cell supervisor (assembly/run/supervisor.py)."""
 
 from __future__ import annotations
 

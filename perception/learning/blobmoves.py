@@ -28,12 +28,12 @@ from pathlib import Path
 
 import numpy as np
 
-from perception.errors import FvtreeError
+from fileio.errors import FvtreeError
+from fileio.yaml_source import load_file
 from perception.learning.dataset import Recording
 from perception.learning.features import columns, feature_spec, tick_features
 from perception.state import FINGERS, MarkerField, TactileState
 from perception.wrench import wrench
-from perception.yaml_source import load_file
 
 FIELDS = ("Pox", "Poy", "So", "DPx", "DPy", "DS")
 MAX_BYTES = 64 * 2**20  # a log larger than this is not a trial

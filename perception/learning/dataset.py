@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from perception.errors import FvtreeError
+from fileio.errors import FvtreeError
 from perception.learning.features import check_spec
 
 FORMAT = "fvtree-recording"

@@ -10,7 +10,7 @@ import pytest
 import yaml
 from drivers_testkit import Emulator, emulating, next_host, tolerant_of_load
 
-from assembly.session import run_tree
+from assembly.run.session import run_tree
 from drivers.cell_file import CELLS_DIR
 
 TREE = "trees/assembly.yaml"

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from assembly.design import DesignModel
+from assembly.design.model import DesignModel
 from drivers.cell_builders import load_cell
 from drivers.clock import SimClock
 from drivers.emulators.shadow import FollowedArm, FollowedGripper
@@ -19,7 +19,7 @@ from drivers.sim.devices.arm import KinematicArm
 from drivers.sim.devices.gripper import SimGripper
 from drivers.sim.models.plate import BeamPlate
 from drivers.sim.scenes import SCENES
-from perception.errors import FvtreeError
+from fileio.errors import FvtreeError
 
 DESIGN_FILE = Path(__file__).resolve().parents[2] / "trees" / "design" / "two_bays.json"
 HOME = [0.0, 0.0, 0.5, np.pi, 0.0, 0.0]

@@ -1,4 +1,4 @@
-"""The error bench (`assembly/bench/perception/errors.py`): a pixel-mode run recorded beside its
+"""The error bench (`assembly/bench/perception/error_model_fit.py`): a pixel-mode run recorded beside its
 truth, and the error model fitted to it agrees with the one signals mode ships."""
 
 from __future__ import annotations
@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from assembly.bench.perception.errors import measure, run
-from assembly.bench.perception.recording import record
-from drivers.sim.models.pipeline_errors import PipelineErrors
+from assembly.bench.perception.error_model_fit import measure, run
+from assembly.bench.perception.pixel_runs import record
+from drivers.sim.models.pipeline_error_model import PipelineErrors
 
 TREES = Path(__file__).resolve().parents[2] / "trees"
 
@@ -40,7 +40,7 @@ def test_the_fitted_model_is_the_one_signals_mode_ships(hold_recording):
 
 
 def test_the_bench_writes_its_tables_and_model(tmp_path, monkeypatch):
-    import assembly.bench.perception.errors as bench
+    import assembly.bench.perception.error_model_fit as bench
 
     monkeypatch.setattr(bench, "QUICK_RUNS", ("hold.yaml",))
     written = run(tmp_path, quick=True)

@@ -5,7 +5,7 @@ Shear moves the markers inside the contact patch along the shear; normal load sp
 radially and grows their apparent size; torque about the finger normal turns them around the
 patch centre. Seeded Gaussian noise is added to marker positions and sizes; with
 `pipeline_errors` (the simulated cell's signals mode), the errors of the real pipeline measured in
-pixel mode are applied instead (`pipeline_errors.py`: marker lag, noise and dropouts, object
+pixel mode are applied instead (`pipeline_error_model.py`: marker lag, noise and dropouts, object
 misses and noise, slip as the image motion MOG2 sees, late and noisy).
 """
 
@@ -16,8 +16,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from drivers.sim.models import pipeline_errors
-from drivers.sim.models.pipeline_errors import ErrorModel, PipelineErrors
+from drivers.sim.models import pipeline_error_model
+from drivers.sim.models.pipeline_error_model import ErrorModel, PipelineErrors
 from perception.state import MarkerField, ObjectInfo, TactileState
 from perception.wrench import warm_up, wrench
 
@@ -80,7 +80,7 @@ class SensorModel:
         self._patch_key: tuple | None = ()  # the centre `_basis` was made for; () before the first
         self._errors: ErrorModel | None = None
         warm_up()  # the compiled wrench, field and error model loaded now, not on the first tick
-        pipeline_errors.warm_up()
+        pipeline_error_model.warm_up()
         _field(self._rest, np.zeros((5, len(self._rest))), 0.0, 0.0, 0.0, 0.0, 0.0)
 
     def _patch(self, centre: np.ndarray | None) -> np.ndarray:

@@ -30,7 +30,7 @@ from drivers.sim.models.fingervision_model import FingerContact, SensorModel
 from drivers.sim.models.marker_patches import MarkerPainter
 from drivers.sim.models.noise_bank import NoiseBank
 from drivers.sim.models.object_layer import ObjectLayer, ObjectPatch, Placement, object_info_from_mask
-from drivers.sim.models.pipeline_errors import SLIP_PX_PER_UNIT
+from drivers.sim.models.pipeline_error_model import SLIP_PX_PER_UNIT
 from perception.state import FINGERS, ObjectInfo, TactileState
 
 HOUSING_GREY = 50.0

@@ -11,7 +11,7 @@ from drivers.cell_file import CellFileError, section
 from drivers.protocols import Clock, PerceptionSource, SceneArm, SceneGripper, World
 from drivers.sim.models.fingervision_model import SensorModel
 from drivers.sim.scenes import assembly, followme, handover, hold, press, stick, stir
-from perception.errors import did_you_mean
+from fileio.errors import did_you_mean
 from perception.state import FINGERS
 
 # name -> builder(arm, gripper, scene_args, world settings, seed) -> World
@@ -27,7 +27,7 @@ SCENES: dict[str, Callable[[SceneArm, SceneGripper, dict, dict, int], World]] = 
     "stir": stir.build,
 }
 
-# scene name -> the package providing it (plug-in packages add theirs through `assembly.plugins`)
+# scene name -> the package providing it (plug-in packages add theirs through `assembly.language.plugins`)
 SCENE_PACKAGES: dict[str, str] = dict.fromkeys(SCENES, "fvtree")
 
 SENSOR_FIELDS = set(SensorModel.__dataclass_fields__) - {"finger", "seed"}

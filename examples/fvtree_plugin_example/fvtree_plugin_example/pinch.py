@@ -8,9 +8,9 @@ from typing import ClassVar
 
 from py_trees.common import Status
 
-from behaviours import keys
-from behaviours.base import Param, ProgramSkill, time_limit
-from behaviours.hand import grip_squeeze
+from behaviours.skill_kit import keys
+from behaviours.skill_kit.base import Param, ProgramSkill, time_limit
+from behaviours.skill_kit.hand import grip_squeeze
 
 PINCH_WIDTH = "/task/pinch_width"
 

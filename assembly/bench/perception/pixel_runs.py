@@ -1,0 +1,105 @@
+"""Pixel-mode runs recorded beside their truth: every tick, what the scene put on each fingertip
+(the contact model's loads, object and slip, and the noise-free marker field it implies) and what
+the real FingerVision pipeline made of the rendered frame. Read by `errors.py`."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from assembly.design.model import DesignModel
+from assembly.language.build import build
+from assembly.language.reader import load_tree
+from assembly.run.loop import Runner
+from assembly.run.perception_stage import clear_blackboard
+from drivers.cell_builders import load_cell
+from drivers.cell_file import resolve_cell_path
+from drivers.sim.models.fingervision_model import FingerContact, SensorModel
+from perception.state import FINGERS, TactileState
+
+
+@dataclass(frozen=True)
+class Tick:
+    """One finger on one tick: truth (contact and noise-free markers) and the pipeline's state."""
+
+    contact: FingerContact
+    position: np.ndarray  # (N, 2) px, noise-free marker centres, in the pipeline's marker order
+    size: np.ndarray  # (N,) px
+    state: TactileState
+
+
+@dataclass
+class Recording:
+    """The ticks of one run, per finger, and how the run ended."""
+
+    tree: str
+    status: str
+    ticks: dict[str, list[Tick]]
+    period: float
+
+
+def first_element_only(tree: Path, out_dir: Path) -> Path:
+    """A copy of an assembly tree that builds only the first element of its design's build order."""
+    doc = yaml.safe_load(tree.read_text())
+    design = (tree.parent / doc["design"]).resolve()
+    first = DesignModel.load(design).build_order()[0]
+    doc["design"] = str(design)
+    doc["include"] = [str((tree.parent / rel).resolve()) for rel in doc.get("include", [])]
+
+    def restrict(node) -> None:
+        if isinstance(node, dict):
+            if "for_each_element" in node:
+                node["elements"] = [first]
+            for value in node.values():
+                restrict(value)
+        elif isinstance(node, list):
+            for value in node:
+                restrict(value)
+
+    restrict(doc["root"])
+    short = out_dir / tree.name
+    short.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return short
+
+
+def _order(model_origin: np.ndarray, pipeline_origin: np.ndarray) -> np.ndarray:
+    """For each pipeline marker, the index of the model marker it was calibrated on (nearest)."""
+    d = np.linalg.norm(pipeline_origin[:, None, :] - model_origin[None, :, :], axis=2)
+    return d.argmin(axis=1)
+
+
+def record(tree: Path, seed: int = 0, max_time: float = 120.0) -> Recording:
+    """Run `tree` in pixel mode on the simulated cell and record every tick beside its truth."""
+    doc = load_tree(tree)
+    clear_blackboard()
+    scene_args = doc.design.scene_args() if doc.design is not None else {}
+    cell = load_cell("sim", doc.tick_hz, doc.scene, scene_args, seed=seed, perception="pixels")
+    sensor_cfg = yaml.safe_load(resolve_cell_path("sim").read_text()).get("sensor") or {}
+    models = {f: SensorModel(f, **{**sensor_cfg, "noise_px": 0.0, "pipeline_errors": False}) for f in FINGERS}
+    ticks: dict[str, list[Tick]] = {f: [] for f in FINGERS}
+    orders: dict[str, np.ndarray] = {}
+    pixel_sense, world = cell.sense, cell.world
+
+    def sense() -> dict[str, TactileState]:
+        contacts = world.contacts()  # what the frames about to be rendered show
+        states = pixel_sense()
+        for f in FINGERS:
+            truth = models[f].state(contacts[f], 0.0).markers
+            if f not in orders:
+                orders[f] = _order(truth.origin, states[f].markers.origin)
+            idx = orders[f]
+            ticks[f].append(Tick(dataclasses.replace(contacts[f]), truth.position[idx], truth.size[idx], states[f]))
+        return states
+
+    cell.sense = sense
+    runner = Runner(build(doc), cell, max_time=max_time)
+    runner.setup()
+    try:
+        result = runner.run()
+    finally:
+        cell.close()
+    return Recording(tree.name, result.status, ticks, 1.0 / doc.tick_hz)

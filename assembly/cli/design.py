@@ -1,0 +1,87 @@
+"""The command line of the design link: `fvtree run --bridge/--cell-name/--coordinated`,
+`fvtree coordinate` (the authority over a design several cells build) and `fvtree design`
+(convert a design between node-link and COMPAS JSON). COMPAS is imported only when used."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+
+def add_link_options(run: argparse.ArgumentParser) -> None:
+    """The options of `fvtree run` that link the run's design bridge to a broker."""
+    run.add_argument("--bridge", default=None, metavar="mqtt://HOST:PORT",
+                     help="also publish the design live over MQTT (compas_eve) and take design updates; the "
+                          "as-built file stays the record")
+    run.add_argument("--cell-name", default=None, metavar="NAME",
+                     help="with --bridge: the topic level of this cell, fvtree/NAME/... (default: the tree's name)")
+    run.add_argument("--coordinated", action="store_true",
+                     help="with --bridge: take each element from the design's coordinator (fvtree coordinate), "
+                          "sharing the design with other cells")
+
+
+def add_design_link_commands(sub) -> None:
+    """`fvtree coordinate` and `fvtree design`."""
+    c = sub.add_parser("coordinate", help="hand out the elements of a design to several cells over MQTT")
+    c.add_argument("design", help="design file (node-link JSON)")
+    c.add_argument("--broker", required=True, metavar="mqtt://HOST:PORT")
+    c.add_argument("--lease", type=float, default=10.0, metavar="SECONDS",
+                   help="a claim a cell stops renewing expires after this long (default: 10)")
+    c.add_argument("--state", default=None, metavar="FILE",
+                   help="save the coordinated model here after every change, and resume from it (default: "
+                        "DESIGN's name + .coordinated.json in the current directory)")
+    c.add_argument("--until-done", action="store_true", help="exit once every element is placed")
+    c.set_defaults(func=cmd_coordinate)
+
+    d = sub.add_parser("design", help="convert a design between node-link JSON and COMPAS JSON")
+    d.add_argument("direction", choices=("to-compas", "from-compas"))
+    d.add_argument("source")
+    d.add_argument("target")
+    d.set_defaults(func=cmd_design)
+
+
+def cmd_coordinate(args) -> int:
+    from assembly.design.link.coordinator import Coordinator, load_state
+
+    state = Path(args.state or f"{Path(args.design).stem}.coordinated.json")
+    coordinator = Coordinator(load_state(Path(args.design), state), args.broker, args.lease, state)
+    print(f"coordinating {coordinator.name} on {args.broker} (claims on {coordinator.topics.claims}, "
+          f"state in {state})", file=sys.stderr)
+    seen = 0
+
+    def print_new() -> None:
+        """Print the log entries not printed yet (the coordinator's thread appends meanwhile: count
+        what was printed, not the log's length after)."""
+        nonlocal seen
+        new = coordinator.log[seen:]
+        seen += len(new)
+        for entry in new:
+            print(json.dumps(entry), flush=True)
+
+    coordinator.start()
+    try:
+        while not (args.until_done and coordinator.done()):
+            time.sleep(0.2)
+            print_new()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        coordinator.stop()
+    print_new()
+    return 0
+
+
+def cmd_design(args) -> int:
+    from assembly.design.link.compas_data import load_compas, save_compas
+    from assembly.design.model import DesignModel
+    from fileio.json_files import atomic_write_json
+
+    if args.direction == "to-compas":
+        save_compas(DesignModel.load(args.source), args.target)
+    else:
+        atomic_write_json(Path(args.target), load_compas(args.source).to_data())
+    print(f"wrote {args.target}")
+    return 0

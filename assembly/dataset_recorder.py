@@ -1,0 +1,72 @@
+"""`fvtree record TREE --out DATA`: run a tree and keep, for every tick, the feature vector of
+the two TactileStates, the labels the simulated scene provides (e.g. the scale reading, the
+substance stirred) and the learning example the tree marks as running (/task/stir_trial).
+The file format is documented in perception/learning/dataset.py."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from py_trees.blackboard import Blackboard
+
+from assembly.language.build import build
+from assembly.language.reader import load_tree
+from assembly.run.loop import Runner
+from assembly.run.perception_stage import clear_blackboard
+from behaviours.skill_kit import keys
+from drivers.cell_builders import load_cell
+from perception.learning.dataset import Recording
+from perception.learning.features import columns, feature_spec, tick_features
+
+
+def record_run(tree_path: str | Path, cell: str = "sim", seed: int = 0, max_time: float = 3600.0,
+               perception: str | None = None) -> Recording:
+    """Run the tree once (simulated perception from contact `signals` or rendered `pixels`, or the
+    cell's own) and return its per-tick recording; RuntimeError if the run fails."""
+    doc = load_tree(tree_path)
+    clear_blackboard()
+    scene_args = doc.design.scene_args() if doc.design is not None else {}
+    the_cell = load_cell(cell, doc.tick_hz, doc.scene, scene_args, seed=seed, perception=perception)
+    world = the_cell.world
+    rows, stamps, labels, segments = [], [], [], []
+
+    def trial() -> int:
+        """The example the tree marked during the last tick (written after that tick's sensing)."""
+        current = Blackboard.storage.get(keys.STIR_TRIAL)
+        return current["trial"] if current and current.get("active") else -1
+
+    def sense():
+        if rows:
+            segments.append(trial())
+        states = the_cell.sense()
+        rows.append(tick_features(states["left"], states["right"]))
+        stamps.append(the_cell.clock.now())
+        labels.append(world.labels())
+        return states
+
+    runner = Runner(build(doc), the_cell, sense=sense, max_time=max_time)
+    try:
+        runner.setup()
+        result = runner.run()
+    finally:
+        the_cell.close()
+    segments.append(trial())
+    if result.status != "SUCCESS":
+        raise RuntimeError(f"the recording run of {tree_path} (seed {seed}) ended {result.status} at "
+                           f"{result.where}: {result.message}")
+    names = sorted(set().union(*labels)) if labels else []
+    header = {"source": {"tree": str(tree_path), "cell": cell, "scene": doc.scene, "seeds": [seed],
+                         "perception": perception or "cell default"},
+              "feature_spec": feature_spec(), "columns": columns(),
+              "label_info": world.label_info()}
+    return Recording(header, np.array(stamps), np.zeros(len(rows), np.int32), np.array(segments, np.int32),
+                     np.array(rows), {n: np.array([row.get(n) for row in labels]) for n in names})
+
+
+def record(tree_path: str | Path, out: str | Path, cell: str = "sim", seed: int = 0, runs: int = 1,
+           perception: str | None = None) -> Path:
+    """Record `runs` runs (seeds seed, seed+1, ...) of a tree into one file at `out`."""
+    parts = [record_run(tree_path, cell, seed + i, perception=perception) for i in range(runs)]
+    header = {**parts[0].header, "source": {**parts[0].header["source"], "seeds": list(range(seed, seed + runs))}}
+    return Recording.concatenate(parts, header).save(out)

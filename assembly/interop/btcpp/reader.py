@@ -1,0 +1,365 @@
+"""Import BehaviorTree.CPP v4 XML (as exported, or as Groot2 writes it) into the YAML tree language.
+
+Each BT.CPP node with an equivalent becomes its kind (the table is docs/btcpp.md); anything else
+is refused with the XML line and the reason, all problems at once (exit code 2). The result is
+validated like any tree file before it is returned.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from assembly.errors import TreeError, TreeErrors
+from assembly.interop.btcpp.nodes_model import PORT_TYPES
+from assembly.interop.btcpp.values import PORT_REF, PortError, from_port, read_condition_script
+from assembly.interop.btcpp.writer import PI_TARGET, rebase
+from assembly.language.reader import load_tree
+from assembly.language.validator import known_blackboard_keys
+from behaviours.skill_kit.model_files import UsesModel
+from behaviours.skill_kit.registry import SKILLS
+from fileio.errors import did_you_mean
+from fileio.xml_source import XmlNode, parse_xml_file
+
+COMPOSITES = {"Sequence": ("sequence", True), "ReactiveSequence": ("sequence", False),
+              "Fallback": ("selector", True), "ReactiveFallback": ("selector", False)}
+PARALLELS = {("-1", "1"): ("all", True), ("1", "1"): ("one", False)}
+LAYOUT_ATTRS = {"_uid", "_fullpath", "_description"}  # Groot2's metadata: `_description` becomes `doc`
+NO_EQUIVALENT = {
+    "SequenceWithMemory": "after a failure it resumes at the failed child; fvtree sequences start again "
+                          "(use Sequence)",
+    "AsyncSequence": "it returns RUNNING between children; use Sequence",
+    "AsyncFallback": "it returns RUNNING between children; use Fallback",
+    "ParallelAll": "its failure threshold has no fvtree parallel policy; use Parallel",
+    "Sleep": "it waits on the wall clock; skills wait on the cell clock",
+    "Delay": "it waits on the wall clock; skills wait on the cell clock",
+    "Script": "it writes the blackboard; in fvtree only skills write it",
+    "SetBlackboard": "it writes the blackboard; in fvtree only skills write it",
+    "UnsetBlackboard": "it writes the blackboard; in fvtree only skills write it",
+    "Precondition": "use a Guard with a _while script, or a ScriptCondition first in a Sequence",
+}
+PRECONDITIONS = {
+    "_skipIf": "py_trees has no SKIPPED status",
+    "_failureIf": "put a ScriptCondition before the node in a Sequence",
+    "_successIf": "put the node in a Fallback after a ScriptCondition",
+    "_onSuccess": "post-condition scripts write the blackboard; only skills write it",
+    "_onFailure": "post-condition scripts write the blackboard; only skills write it",
+    "_onHalted": "post-condition scripts write the blackboard; only skills write it",
+    "_post": "post-condition scripts write the blackboard; only skills write it",
+}
+
+
+@dataclass
+class _Reader:
+    file: str
+    out_dir: Path
+    subtree_types: dict[str, dict[str, str]]  # subtree -> param -> declared type
+    errors: list[TreeError] = field(default_factory=list)
+    keys: set[str] = field(default_factory=known_blackboard_keys)
+
+    def refuse(self, x: XmlNode, message: str, hint: str | None = None) -> None:
+        self.errors.append(TreeError(message, self.file, x.line, f"<{x.tag}>", hint))
+
+    def port(self, x: XmlNode, attr: str, type_: str) -> Any:
+        try:
+            return from_port(x.attrs[attr], type_)
+        except PortError as exc:
+            self.refuse(x, f"{attr}: {exc}")
+            return None
+
+    def children(self, x: XmlNode, one: bool) -> list[dict]:
+        if one and len(x.children) != 1:
+            self.refuse(x, f"<{x.tag}> takes exactly one child node, got {len(x.children)}")
+        elif not one and not x.children:
+            self.refuse(x, f"<{x.tag}> has no children")
+        out, names = [], set()
+        for child in x.children:
+            node = self.node(child)
+            if node is None:
+                continue
+            name = _name_of(node)
+            if name in names:  # BT.CPP names need not be unique, fvtree paths must be: number them
+                base, n = name, 2
+                while f"{base}_{n}" in names:
+                    n += 1
+                name = f"{base}_{n}"
+                _rename(node, name)
+            names.add(name)
+            out.append(node)
+        return out
+
+    def node(self, x: XmlNode) -> dict | None:
+        for attr in x.attrs:
+            if attr in PRECONDITIONS:
+                self.refuse(x, f"attribute {attr} has no equivalent", PRECONDITIONS[attr])
+        before = len(self.errors)
+        body = self._node(x)
+        if body is None or len(self.errors) > before:
+            return None
+        if "_description" in x.attrs:
+            body["doc"] = x.attrs["_description"]
+        if "_while" in x.attrs and x.tag != "Guard":  # a scripted pre-condition: a guard around the node
+            cond = self.condition(x, x.attrs["_while"])
+            return None if cond is None else {"guard": f"{_name_of(body)}_while", "while": cond, "child": body}
+        return body
+
+    def own_attrs(self, x: XmlNode, allowed: set[str]) -> None:
+        for attr in x.attrs:
+            if attr not in allowed and attr not in LAYOUT_ATTRS and attr not in PRECONDITIONS and attr != "name":
+                self.refuse(x, f"unknown attribute {attr!r} of <{x.tag}>", did_you_mean(attr, allowed))
+
+    def condition(self, x: XmlNode, code: str) -> dict | None:
+        try:
+            return read_condition_script(code, self.keys)
+        except PortError as exc:
+            self.refuse(x, f"script: {exc}")
+            return None
+
+    def _node(self, x: XmlNode) -> dict | None:
+        tag, a = x.tag, x.attrs
+        name = a.get("name", tag)
+        if tag in COMPOSITES:
+            self.own_attrs(x, {"_while"})
+            kind, memory = COMPOSITES[tag]
+            return {kind: name, "memory": memory, "children": self.children(x, one=False)}
+        if tag == "Parallel":
+            self.own_attrs(x, {"success_count", "failure_count", "_while"})
+            counts = (a.get("success_count", "-1"), a.get("failure_count", "1"))
+            if counts not in PARALLELS:
+                self.refuse(x, f"Parallel success_count={counts[0]} failure_count={counts[1]} has no equivalent",
+                            "fvtree parallels fail on the first failure and succeed on all (-1) or one (1)")
+                return None
+            policy, sync = PARALLELS[counts]
+            return {"parallel": name, "policy": policy, "synchronise": sync,
+                    "children": self.children(x, one=False)}
+        if tag == "FvParallel":
+            self.own_attrs(x, {"policy", "synchronise", "selected", "_while"})
+            out = {"parallel": name, "policy": a.get("policy"), "synchronise": self.port(x, "synchronise", "bool")
+                   if "synchronise" in a else False}
+            if "selected" in a:
+                out["selected"] = a["selected"].split(";")
+            return {**out, "children": self.children(x, one=False)}
+        decorators = {"RetryUntilSuccessful": ("retry", "num_attempts", "attempts"),
+                      "Repeat": ("repeat", "num_cycles", "times")}
+        if tag in decorators:
+            kind, attr, ours = decorators[tag]
+            self.own_attrs(x, {attr, "_while"})
+            if attr not in a:
+                self.refuse(x, f"<{tag}> needs {attr}")
+                return None
+            return {kind: name, ours: self.port(x, attr, "int"), "child": self._child(x)}
+        if tag == "Timeout":
+            self.own_attrs(x, {"msec", "_while"})
+            msec = self.port(x, "msec", "int") if "msec" in a else None
+            if not isinstance(msec, int):
+                self.refuse(x, "<Timeout> needs msec as an integer", "fvtree timeouts cannot take a $param")
+                return None
+            seconds = msec / 1000
+            return {"timeout": name, "seconds": int(seconds) if seconds == int(seconds) else seconds,
+                    "child": self._child(x)}
+        if tag in ("Inverter", "ForceSuccess", "ForceFailure", "StatusMap"):
+            self.own_attrs(x, {"map", "_while"} if tag == "StatusMap" else {"_while"})
+            if tag == "Inverter":
+                return {"inverter": name, "child": self._child(x)}
+            pairs = {"ForceSuccess": "failure:success", "ForceFailure": "success:failure"}.get(tag, a.get("map", ""))
+            mapping = dict(p.split(":", 1) for p in pairs.split(";") if ":" in p)
+            return {"status_map": name, "map": mapping, "child": self._child(x)}
+        if tag == "Guard":
+            self.own_attrs(x, {"_while"})
+            if "_while" not in a:
+                self.refuse(x, "<Guard> needs a _while script")
+                return None
+            cond = self.condition(x, a["_while"])
+            return None if cond is None else {"guard": name, "while": cond, "child": self._child(x)}
+        if tag == "ForEachElement":
+            self.own_attrs(x, {"elements", "_while"})
+            out = {"for_each_element": name}
+            if "elements" in a:
+                out["elements"] = [e for e in a["elements"].split(";") if e]
+            return {**out, "child": self._child(x)}
+        if tag == "ScriptCondition":
+            self.own_attrs(x, {"code", "_while"})
+            cond = self.condition(x, a.get("code", ""))
+            return None if cond is None else {"condition": name, **cond}
+        if tag == "BlackboardCheck":
+            self.own_attrs(x, {"key", "op", "value", "_while"})
+            out = {"condition": name, "key": a.get("key"), "op": a.get("op")}
+            if "value" in a:
+                try:
+                    out["value"] = json.loads(a["value"])
+                except json.JSONDecodeError:
+                    self.refuse(x, f"value: not JSON: {a['value']!r}")
+            return out
+        if tag == "SubTree":
+            return self._subtree(x)
+        if tag in SKILLS:
+            return self._skill(x)
+        if tag in NO_EQUIVALENT:
+            self.refuse(x, f"<{tag}> has no equivalent", NO_EQUIVALENT[tag])
+        else:
+            self.refuse(x, f"<{tag}> is neither a BT.CPP node with an fvtree equivalent nor a skill",
+                        did_you_mean(tag, [*SKILLS, *COMPOSITES]) or "run 'fvtree skills' to list the skills")
+        return None
+
+    def _child(self, x: XmlNode) -> dict | None:
+        kids = self.children(x, one=True)
+        return kids[0] if kids else None
+
+    def _skill(self, x: XmlNode) -> dict:
+        cls = SKILLS[x.tag]
+        self.own_attrs(x, {*cls.PARAMS, "_while"})
+        params = {k: self.port(x, k, cls.PARAMS[k].type) for k in x.attrs if k in cls.PARAMS}
+        if issubclass(cls, UsesModel) and isinstance(params.get("model"), str) and not params["model"].startswith("$"):
+            params["model"] = rebase(params["model"], Path(self.file).parent, self.out_dir)
+        out: dict[str, Any] = {"skill": x.tag}
+        if x.attrs.get("name", x.tag) != x.tag:
+            out["name"] = x.attrs["name"]
+        if params:
+            out["params"] = params
+        return out
+
+    def _subtree(self, x: XmlNode) -> dict | None:
+        ref = x.attrs.get("ID")
+        if ref not in self.subtree_types:
+            self.refuse(x, f"<SubTree ID={ref!r}> names no <BehaviorTree> of this file",
+                        did_you_mean(ref, self.subtree_types))
+            return None
+        if x.attrs.get("_autoremap", "false") != "false":
+            self.refuse(x, "_autoremap has no equivalent", "pass each param as a port")
+        types = self.subtree_types[ref]
+        params = {k: self.port(x, k, types.get(k, "str")) for k in x.attrs
+                  if k not in ("ID", "name", "_autoremap", "_while") and k not in LAYOUT_ATTRS}
+        out: dict[str, Any] = {"subtree": ref}
+        if x.attrs.get("name", ref) != ref:
+            out["name"] = x.attrs["name"]
+        if params:
+            out["params"] = params
+        return out
+
+
+def _kind_key(node: dict) -> str:
+    return next(iter(node))
+
+
+def _name_of(node: dict) -> str:
+    return node.get("name", node[_kind_key(node)]) if _kind_key(node) in ("skill", "subtree") else node[_kind_key(node)]
+
+
+def _rename(node: dict, name: str) -> None:
+    if _kind_key(node) in ("skill", "subtree"):
+        node["name"] = name
+    else:
+        node[_kind_key(node)] = name
+
+
+def _metadata(root: XmlNode, file: str) -> dict:
+    """The `<?fvtree {json}?>` the exporter writes (empty for files from elsewhere)."""
+    for target, data in root.instructions:
+        if target == PI_TARGET:
+            try:
+                meta = json.loads(data)
+            except json.JSONDecodeError as exc:
+                raise TreeErrors([TreeError(f"<?fvtree?> is not JSON: {exc.msg}", file, root.line)]) from None
+            if not isinstance(meta, dict):
+                raise TreeErrors([TreeError("<?fvtree?> must hold a JSON object", file, root.line)])
+            return meta
+    return {}
+
+
+OUR_TYPES = {bt: ours for ours, bt in PORT_TYPES.items()}
+INT_PORTS = {("RetryUntilSuccessful", "num_attempts"), ("Repeat", "num_cycles")}
+
+
+def _port_types(x: XmlNode, out: dict[str, str]) -> dict[str, str]:
+    """The type of each `{port}` of a subtree body, from the skill param or decorator field it feeds."""
+    for attr, text in x.attrs.items():
+        ref = PORT_REF.match(text)
+        if ref and x.tag in SKILLS and attr in SKILLS[x.tag].PARAMS:
+            out.setdefault(ref.group(1), SKILLS[x.tag].PARAMS[attr].type)
+        elif ref and (x.tag, attr) in INT_PORTS:
+            out.setdefault(ref.group(1), "int")
+    for child in x.children:
+        _port_types(child, out)
+    return out
+
+
+def _groot_subtree_params(model: XmlNode | None, trees: dict[str, XmlNode], file: str) -> dict[str, dict]:
+    """Subtree ports Groot2 declares in `<TreeNodesModel><SubTree ID=...>`, typed by their `type`
+    or, when they have none, by what each feeds in the subtree's body (a string when it feeds
+    nothing typed)."""
+    out: dict[str, dict] = {}
+    for node in model.children if model is not None else []:
+        if node.tag != "SubTree" or node.attrs.get("ID") not in trees:
+            continue
+        types = _port_types(trees[node.attrs["ID"]], {})
+        params = out[node.attrs["ID"]] = {}
+        for port in (p for p in node.children if p.tag == "input_port" and "name" in p.attrs):
+            declared = OUR_TYPES.get(port.attrs.get("type", ""))
+            decl = params[port.attrs["name"]] = {"type": declared or types.get(port.attrs["name"], "str")}
+            if "default" in port.attrs:
+                try:
+                    decl["default"] = from_port(port.attrs["default"], decl["type"])
+                except PortError as exc:
+                    raise TreeErrors([TreeError(f"default: {exc}", file, port.line, f"<SubTree ID={node.attrs['ID']!r}>")])
+    return out
+
+
+def import_xml(path: str | Path, out: str | Path) -> str:
+    """The YAML text of a BT.CPP v4 XML file, to be written at `out` (paths made relative to it),
+    validated; TreeErrors listing every XML node without an equivalent, or what validation found."""
+    file = str(path)
+    root = parse_xml_file(path)
+    if root.tag != "root" or root.attrs.get("BTCPP_format") != "4":
+        raise TreeErrors([TreeError("not BehaviorTree.CPP v4 XML: expected <root BTCPP_format=\"4\">", file,
+                                    root.line, hint="open and save a v3 file in Groot2 to convert it")])
+    meta = _metadata(root, file)
+    trees = {t.attrs.get("ID", ""): t for t in root.children if t.tag == "BehaviorTree"}
+    model = next((t for t in root.children if t.tag == "TreeNodesModel"), None)
+    errors = [TreeError("<include> is not followed: merge the included trees into this file", file, t.line,
+                        "<include>") for t in root.children if t.tag == "include"]
+    main = root.attrs.get("main_tree_to_execute") or (next(iter(trees)) if len(trees) == 1 else None)
+    if main not in trees:
+        errors.append(TreeError(f"no main tree: main_tree_to_execute is {main!r}", file, root.line,
+                                hint=f"trees in this file: {', '.join(trees) or 'none'}"))
+        raise TreeErrors(errors)
+    ours, groot = meta.get("subtrees") or {}, _groot_subtree_params(model, trees, file)
+    subtrees = {name: ours[name].get("params", {}) if name in ours else groot.get(name, {})
+                for name in trees if name != main}
+    out_dir = Path(out).parent
+    reader = _Reader(file, out_dir, {n: {p: d.get("type", "str") for p, d in ps.items()} for n, ps in subtrees.items()})
+    reader.errors = errors
+
+    def body(tree: XmlNode) -> dict | None:
+        if len(tree.children) != 1:
+            reader.refuse(tree, f"a <BehaviorTree> holds one root node, got {len(tree.children)}")
+            return None
+        return reader.node(tree.children[0])
+
+    doc: dict[str, Any] = {"version": 1, "name": meta.get("name", main)}
+    for key in ("doc", "cell"):
+        if key in meta:
+            doc[key] = meta[key]
+    if "design" in meta:
+        doc["design"] = rebase(meta["design"], Path(file).parent, out_dir)
+    if subtrees:
+        doc["subtrees"] = {name: {**({"params": params} if params else {}), "root": body(trees[name])}
+                           for name, params in subtrees.items()}
+    doc["root"] = body(trees[main])
+    if reader.errors:
+        raise TreeErrors(reader.errors)
+    text = yaml.safe_dump(_plain(doc), sort_keys=False, default_flow_style=None, width=110)
+    load_tree(text=text, name=str(out))  # the result validates, or says why not
+    return text
+
+
+def _plain(value: Any) -> Any:
+    """Plain dicts and lists (YAML dumps Located mappings from the metadata as plain ones)."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_plain(v) for v in value]
+    return value

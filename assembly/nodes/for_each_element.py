@@ -1,0 +1,152 @@
+"""Iteration over the design model's elements in build order, resuming past placed ones."""
+
+from __future__ import annotations
+
+import py_trees
+from py_trees.common import Access, Status
+
+from assembly.design.model import WAIT
+from assembly.nodes.decorators import DirectDecorator
+from behaviours.skill_kit import keys
+from behaviours.skill_kit.base import KeyReads
+
+
+class ForEachElement(DirectDecorator, py_trees.decorators.Decorator):
+    """Runs its child once per unplaced element, in build order.
+
+    Between two elements the design bridge applies the design changes its live links received
+    (new or changed planned elements join the order; placements by other cells are stood in the
+    simulated world) and names the next element (with several cells, a coordinator may say to
+    wait: the child is not ticked meanwhile). Before each run it publishes the element's design
+    entry on /task/element (and the plates on /task/plates). After each tick of the child it
+    hands a new /task/asbuilt record of the element to the design bridge, which writes it
+    durably before the next tick: `placing` (the skill is about to open the fingers) and then
+    `placed`. SUCCESS when every element is placed; FAILURE as soon as one element fails, or its
+    child succeeds without a `placed` record (the model keeps what was placed, so a re-run
+    resumes there).
+    """
+
+    def __init__(self, name: str, child: py_trees.behaviour.Behaviour, only: list[str] | None = None):
+        super().__init__(name=name, child=child)
+        self.only = only
+        self.design = None
+        self.bridge = None
+        self.world = None  # the simulated world, which stands what other cells placed
+        self.current: str | None = None
+        self._node: dict | None = None  # the current element's attributes in the design graph (live)
+        self.waiting = False  # the dispatcher said to wait for another cell
+        self._record: dict | None = None  # the last /task/asbuilt record handed on
+        self.bb = self.attach_blackboard_client(name=name)
+        for key in (keys.ELEMENT, keys.PLATES):
+            self.bb.register_key(key=key, access=Access.WRITE)
+        self.bb.register_key(key=keys.ASBUILT, access=Access.READ)
+        self.reads = KeyReads(self.bb)
+
+    def setup(self, **kwargs) -> None:
+        self.design = kwargs.get("design")
+        self.bridge = kwargs.get("bridge")
+        self.world = getattr(kwargs.get("cell"), "world", None)
+        if self.design is None:
+            raise RuntimeError(f"{self.name}: for_each_element needs a design model (tree 'design:')")
+
+    def remaining(self) -> list[str]:
+        order = self.design.build_order()
+        if self.only is not None:
+            order = [e for e in order if e in self.only]
+        return [e for e in order if not self.design.is_placed(e)]
+
+    def _left_placing(self) -> bool:
+        """The current element's release began before this attempt and was never confirmed:
+        building it again could place it twice, so a person must check it first."""
+        return self._record is None and self._node is not None and self._node.get("status") == "placing"
+
+    def _publish_next(self) -> None:
+        """At an element boundary: take in design changes, then publish the next element."""
+        if self.bridge is not None:
+            for eid in self.bridge.at_boundary():
+                node = self.design.graph.nodes[eid]
+                if self.world is not None and node.get("status") == "placed" and node.get("cell"):
+                    self.world.stand(eid, node["asbuilt_pose"])  # placed by another cell (or before a restart)
+        remaining = self.remaining()
+        choice = self.bridge.next_element(remaining) if self.bridge else (remaining[0] if remaining else None)
+        self.waiting = choice == WAIT
+        self.current = None if self.waiting else choice
+        # Looked up once per element (design changes replace nodes only at boundaries, above); read live.
+        self._node = None if self.current is None else self.design.graph.nodes[self.current]
+        self._record = None
+        if self.waiting:
+            self.feedback_message = "waiting for another cell"
+        elif self.current is not None:
+            self.bb.set(keys.ELEMENT, self.design.element(self.current), overwrite=True)
+            self.bb.set(keys.PLATES, self.design.plates(), overwrite=True)
+            self.feedback_message = f"element {self.current}"
+            if self.bridge is not None:
+                self.bridge.notify({"event": "picking", "element": self.current})
+
+    def initialise(self) -> None:
+        self._publish_next()
+
+    def tick(self):
+        """py_trees' generator tick (for trees ticked with visitors); `tick_once` without it."""
+        new_status = self._status_without_child()
+        if new_status is None:
+            yield from self.decorated.tick()
+            new_status = self.update()
+        self.end_tick(new_status)
+        yield self
+
+    def tick_once(self) -> None:
+        """The runner's tick, without generators (`assembly.nodes.composites`): the steps of `tick`."""
+        new_status = self._status_without_child()
+        if new_status is None:
+            self.decorated.tick_once()
+            new_status = self.update()
+        self.end_tick(new_status)
+
+    def _status_without_child(self) -> Status | None:
+        """The start of a tick: publish the next element when starting or waiting; this tick's
+        status when the child is not to tick (waiting, a placement to check, nothing left), else None."""
+        if self.status != Status.RUNNING:
+            self.initialise()
+        elif self.waiting:
+            self._publish_next()
+        if self.waiting:
+            return Status.RUNNING
+        if self._left_placing():
+            self.feedback_message = (f"element {self.current} was being released when its placement "
+                                     "stopped: check it before building it again")
+            return Status.FAILURE
+        if self.current is None:  # nothing left to build
+            self.feedback_message = "all elements placed"
+            return Status.SUCCESS
+        return None
+
+    def update(self) -> Status:
+        status = self.decorated.status
+        self._hand_on_record()
+        if status == Status.FAILURE:
+            if self.bridge:
+                self.bridge.event("failed", element=self.current, node=self.decorated.name,
+                                  feedback=self.decorated.tip().feedback_message if self.decorated.tip() else "")
+            return Status.FAILURE
+        if status != Status.SUCCESS:
+            return status
+        if self._record is None or self._record.get("status", "placed") != "placed":
+            self.feedback_message = f"{self.current}: child succeeded without recording an as-built pose"
+            return Status.FAILURE
+        self._publish_next()
+        return Status.SUCCESS if self.current is None and not self.waiting else Status.RUNNING
+
+    def _hand_on_record(self) -> None:
+        """Record a new /task/asbuilt record of the current element (`placing` or `placed`)."""
+        record = self.reads.get(keys.ASBUILT)
+        if record is None or record is self._record or record.get("element") != self.current:
+            return
+        self._record = record
+        status = record.get("status", "placed")
+        if self.bridge is None:
+            self._node["status"] = status
+        elif status == "placing":
+            self.bridge.record_placing(self.current, record["pose"], record.get("load"))
+        else:
+            self.bridge.record_placement(self.current, record["pose"], record.get("load"))

@@ -1,0 +1,210 @@
+"""The tick loop of a run, on py_trees' `BehaviourTree`.
+
+Every tick: the stop policy latches e-stop inputs, the perception stage publishes
+/fv/left, /fv/right, /robot/*, /gripper/* and /task/estop, and the cell supervisor (when the run
+is supervised) trips arm and gripper on any fault (pre-tick handlers); the tree ticks once; the
+arm's watchdog is kicked, then the tip, the load profiles, the transition log and the progress
+line are updated (post-tick handlers); the cell advances one period of its clock (simulated time,
+or a sleep to the next period on a real cell). After the tick the stop policy may halt the run.
+
+The loop is fail-safe: an exception anywhere in a tick (a skill, a handler, the cell) halts the
+tree, stops arm and gripper and ends the run with status CRASHED, naming the node that raised.
+"""
+
+from __future__ import annotations
+
+import time
+import traceback
+from collections.abc import Callable
+from pathlib import Path
+from typing import Protocol
+
+import py_trees
+from py_trees.common import Status
+
+from assembly.design.bridge import DesignBridge
+from assembly.language.build import BuiltTree
+from assembly.outcome.result import RunResult
+from assembly.run.load_profiles import LoadProfiles
+from assembly.run.perception_stage import PerceptionStage
+from assembly.run.progress import Progress
+from assembly.run.stop_policy import Stop, StopPolicy
+from assembly.run.supervisor import Supervision, Supervisor
+from assembly.run.tip import Tip
+from assembly.run.transitions import TransitionLog
+from drivers.cell import Cell
+
+
+class BehaviourTree(py_trees.trees.BehaviourTree):
+    """py_trees' BehaviourTree; when it has no visitors, the root ticks without generators
+    (`tick_once`, `assembly.nodes.composites`) and no walk over every node for the visitors follows."""
+
+    def tick(self, pre_tick_handler: Callable | None = None, post_tick_handler: Callable | None = None) -> None:
+        if self.visitors:
+            super().tick(pre_tick_handler, post_tick_handler)
+            return
+        if pre_tick_handler is not None:
+            pre_tick_handler(self)
+        for handler in self.pre_tick_handlers:
+            handler(self)
+        self.root.tick_once()
+        for handler in self.post_tick_handlers:
+            handler(self)
+        if post_tick_handler is not None:
+            post_tick_handler(self)
+        self.count += 1
+
+
+class Recorder(Protocol):
+    """A post-tick handler recording the run (`assembly.observe.recorder.RunRecorder`)."""
+
+    def __call__(self, tree: py_trees.trees.BehaviourTree) -> None: ...
+
+    def record(self, tick: int) -> None: ...
+
+    def event(self, kind: str, **data) -> None: ...
+
+    def close(self) -> None: ...
+
+
+class Runner:
+    """Runs a built tree on a cell, tick by tick; call `setup()` before the first tick.
+
+    With a run directory it writes the transition log there and stops when an `ESTOP` file
+    appears in it; `progress` receives a line each time the tree's tip moves. With `supervision`
+    the cell supervisor watches the cell every tick (`fvtree run` always supervises; the test
+    harness, whose perception is scripted, does not).
+    """
+
+    def __init__(self, tree: BuiltTree, cell: Cell, run_dir: Path | None = None,
+                 bridge: DesignBridge | None = None, realtime: bool = False,
+                 progress: Callable[[str], None] | None = None,
+                 sense: Callable[[], dict] | None = None,
+                 estop_at: float | None = None, max_time: float = 3600.0,
+                 supervision: Supervision | None = None, recorder: Recorder | None = None):
+        self.tree = tree
+        self.cell = cell
+        self.bridge = bridge
+        self.realtime = realtime
+        self.behaviour_tree = BehaviourTree(tree.root)
+        self.tip = Tip(tree)
+        self.stop_policy = StopPolicy(cell, self.tip, bridge, run_dir / "ESTOP" if run_dir else None,
+                                      estop_at, max_time)
+        self.perception = PerceptionStage(cell, sense)
+        self.supervisor = Supervisor(cell, supervision, tree, self.tip) if supervision else None
+        self.load_profiles = LoadProfiles()
+        self.log = TransitionLog(tree, cell.clock, run_dir / "transitions.jsonl") if run_dir else None
+        self.progress = Progress(self.tip, cell.clock, progress) if progress else None
+        self.recorder = recorder
+        self.behaviour_tree.add_pre_tick_handler(self.stop_policy.before_tick)
+        self.behaviour_tree.add_pre_tick_handler(self.perception)
+        if self.supervisor is not None:
+            self.behaviour_tree.add_pre_tick_handler(self.supervisor)
+            self.stop_policy.checks.insert(0, self.supervisor.check)
+        for handler in (self._kick_watchdog, self.tip, self.load_profiles, self.log, self.recorder, self.progress):
+            if handler is not None:
+                self.behaviour_tree.add_post_tick_handler(handler)
+        self._set_up = False
+
+    def setup(self) -> None:
+        """Set up every node with the cell, the design model and the design bridge."""
+        design = self.tree.document.design if self.bridge is None else self.bridge.model
+        self.behaviour_tree.setup(cell=self.cell, design=design, bridge=self.bridge)
+        self._set_up = True
+
+    @property
+    def ticks(self) -> int:
+        """Ticks done so far (during a tick: the number of this tick, from 0)."""
+        return self.behaviour_tree.count
+
+    # ---- one tick --------------------------------------------------------------------------
+    def tick(self) -> Status:
+        self.behaviour_tree.tick()
+        self.cell.step()
+        return self.behaviour_tree.root.status
+
+    def _kick_watchdog(self, tree: py_trees.trees.BehaviourTree) -> None:
+        self.cell.arm.kick()
+
+    # ---- the loop --------------------------------------------------------------------------
+    def run(self) -> RunResult:
+        """Tick until the root succeeds or fails, or the stop policy or Ctrl-C stops the run."""
+        if not self._set_up:
+            raise RuntimeError("Runner.run() before Runner.setup()")
+        start = time.perf_counter()
+        try:
+            while True:
+                status = self.tick()
+                stop = self.stop_policy.check()
+                if stop is not None:
+                    return self._stopped(stop, start)
+                if status != Status.RUNNING:
+                    break
+                if self.realtime and self.cell.simulated:
+                    self._pace(start)
+        except KeyboardInterrupt as interrupt:
+            return self._stopped(self.stop_policy.interrupted(interrupt), start)
+        except Exception as exc:  # noqa: BLE001 - the fail-safe: whatever raised, the cell stops
+            return self._crashed(exc, start)
+        finally:
+            if self.log:
+                self.log.close()
+            if self.recorder:
+                self.recorder.close()
+        where, message = self.tip.path, ""
+        if status == Status.FAILURE:
+            where, message = self._failure()
+        return self._result(status.name, start, where, message)
+
+    def _pace(self, start: float) -> None:
+        ahead = self.cell.clock.now() - (time.perf_counter() - start)
+        if ahead > 0:
+            time.sleep(ahead)
+
+    def halt(self, where: str | None = None, event: str = "halted", **data) -> None:
+        """Stop the tree (every running skill's terminate runs), the arm and the gripper; the
+        design bridge logs `event` at `where` (default: the tip) with `data`."""
+        self.tip(self.behaviour_tree)
+        self.stop_policy.halt(self.behaviour_tree.root, where or self.tip.path, event, **data)
+        if self.log:
+            self.log.record(self.ticks)
+        if self.recorder:
+            if self.bridge is None:  # no event log for the recorder to read: tell it
+                self.recorder.event(event, where=where or self.tip.path, **data)
+            self.recorder.record(self.ticks)
+
+    def _stopped(self, stop: Stop, start: float) -> RunResult:
+        where = stop.where or self.tip.path
+        self.halt(where, status=stop.status, message=stop.message)
+        return self._result(stop.status, start, where, stop.message)
+
+    def _crashed(self, exc: Exception, start: float) -> RunResult:
+        where = self._raiser(exc) or self.tip.path
+        message = f"{type(exc).__name__}: {exc} (in {where})"
+        trace = "".join(traceback.format_exception(exc))
+        self.halt(where, "crashed", message=message, traceback=trace)
+        result = self._result("CRASHED", start, where, message)
+        result.traceback = trace
+        return result
+
+    def _raiser(self, exc: Exception) -> str | None:
+        """The path of the deepest node of this tree on the exception's stack, if any."""
+        paths = {id(node): path for path, node in self.tree.nodes.items()}
+        found, frame = None, exc.__traceback__
+        while frame is not None:
+            found = paths.get(id(frame.tb_frame.f_locals.get("self")), found)
+            frame = frame.tb_next
+        return found
+
+    def _failure(self) -> tuple[str, str]:
+        """The path and feedback of the deepest failed node: where and why the tree failed."""
+        failed = [(p, n) for p, n in self.tree.nodes.items()
+                  if n.status == Status.FAILURE and n.feedback_message]
+        if not failed:
+            return self.tip.path, ""
+        path, node = max(failed, key=lambda pn: pn[0].count("/"))
+        return path, node.feedback_message
+
+    def _result(self, status: str, start: float, where: str, message: str) -> RunResult:
+        return RunResult(status, self.ticks, self.cell.clock.now(), time.perf_counter() - start,
+                         where, message, self.load_profiles.profiles)

@@ -1,0 +1,267 @@
+"""Tick-by-tick testing of trees with mocked perception, for tree authors.
+
+    h = TreeHarness.from_text(TREE_YAML)                 # or TreeHarness.from_file("trees/x.yaml")
+    h.script(lambda tick, t: {"left": touch("left", normal=5.0), "right": touch("right", normal=5.0)})
+    h.tick(3)
+    h.assert_status({"root/grasp": "RUNNING"})
+    h.run_until_done(max_ticks=500)
+    assert h.blackboard("/task/grasp_width") > 0.03
+    assert h.arm.commands_named("move_linear")
+
+Any node can be replaced by a test double, by path or glob (`assembly.language.substitution`):
+
+    h = TreeHarness.from_file("trees/assembly.yaml", cell=cell, substitute={"*/pick_once/grasp": "running:3:success"})
+
+The mocked cell is a kinematic arm (behind the real safety layer) and a gripper that record
+every command; perception comes from a script: a function of (tick, time), or a table of rows
+`(from_tick, {finger: touch(...)})`. `TreeHarness.from_text(..., cell=load_cell(...))` runs the same
+tree on the full simulated cell instead, optionally with scripted perception on top.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from py_trees.blackboard import Blackboard
+from py_trees.common import Status
+
+from assembly.design.model import DesignModel
+from assembly.language.build import BuiltTree, build
+from assembly.language.reader import load_tree
+from assembly.language.substitution import Rule, rules_from
+from assembly.language.substitution import substitute as apply_substitutions
+from assembly.run.loop import Runner
+from assembly.run.perception_stage import clear_blackboard
+from drivers.cell import Cell
+from drivers.clock import SimClock
+from drivers.safe_gripper import SafeGripper
+from drivers.safety import SafeArm, SafetyLimits
+from drivers.sim.devices.arm import KinematicArm
+from drivers.sim.devices.gripper import SimGripper
+from drivers.sim.models.fingervision_model import FingerContact, SensorModel
+from drivers.sim.scenes.base import Scene
+from drivers.sim.scenes.grip import empty_contacts
+from fileio.errors import did_you_mean
+from perception.state import FINGERS, ObjectInfo, TactileState
+
+Substitutions = dict[str, str | dict] | list[Rule] | None  # {PATH or glob: SPEC} or rules
+
+HOME = np.array([0.0, 0.0, 0.5, np.pi, 0.0, 0.0])
+
+_models: dict[str, SensorModel] = {}
+
+
+def touch(finger: str, normal: float = 0.0, shear=(0.0, 0.0), torque: float = 0.0,
+          area: float = 0.0, centroid=(0.0, 0.0), orientation: float = 0.0, slip: float = 0.0,
+          stamp: float = 0.0, healthy: bool = True) -> TactileState:
+    """A noise-free TactileState whose marker field matches the given loads (N, N m) and
+    object view, produced by the simulator's FingerVision contact model."""
+    model = _models.get(finger) or _models.setdefault(finger, SensorModel(finger, noise_px=0.0))
+    obj = ObjectInfo(area > 0.0, area, np.asarray(centroid, float), orientation)
+    state = model.state(FingerContact(normal, np.asarray(shear, float), torque, None, obj, slip), stamp)
+    if not healthy:
+        state = TactileState(finger, stamp, state.markers, state.force, state.torque, obj, slip,
+                             False, "scripted as unhealthy")
+    return state
+
+
+@dataclass
+class Command:
+    t: float
+    name: str
+    args: tuple
+
+
+class _Recorder:
+    """Wraps a device and records every command sent to it with the cell time."""
+
+    COMMANDS: tuple[str, ...] = ()
+
+    def __init__(self, inner, clock):
+        self.inner, self.clock = inner, clock
+        self.commands: list[Command] = []
+
+    def __getattr__(self, name):
+        attr = getattr(self.inner, name)
+        if name in self.COMMANDS:
+            def record(*args, **kwargs):
+                self.commands.append(Command(self.clock.now(), name, args + tuple(kwargs.values())))
+                return attr(*args, **kwargs)
+            return record
+        return attr
+
+    def commands_named(self, name: str) -> list[Command]:
+        return [c for c in self.commands if c.name == name]
+
+
+class RecordingArm(_Recorder):
+    COMMANDS = ("move_linear", "speed_linear", "stop")
+
+
+class RecordingGripper(_Recorder):
+    COMMANDS = ("move", "stop")
+
+    @property
+    def max_width(self):
+        return self.inner.max_width
+
+
+class _MockWorld(Scene):
+    """The least a mocked cell needs: integrate arm and gripper, feel nothing."""
+
+    def __init__(self, arm, gripper):
+        self.arm, self.gripper = arm, gripper
+
+    def step(self, dt: float) -> None:
+        self.arm.step(dt)
+        self.gripper.step(dt)
+
+    def contacts(self) -> dict:
+        return empty_contacts()
+
+
+def mock_cell(tick_hz: float = 30.0, home=HOME, gripper_width: float = 0.085,
+              object_width: float | None = None, limits: SafetyLimits | None = None) -> Cell:
+    """A cell with a kinematic arm and gripper, both behind the real safety layer, that record
+    commands and perceive nothing; `object_width` puts an object of that width between the fingers."""
+    clock = SimClock(1.0 / tick_hz)
+    raw_arm = KinematicArm(clock, home)
+    raw_gripper = SimGripper(width=gripper_width, gel_stiffness=5000.0)
+    raw_gripper.object_width = object_width
+    arm = RecordingArm(SafeArm(raw_arm, limits or SafetyLimits(), clock), clock)
+    gripper = RecordingGripper(SafeGripper(raw_gripper), clock)
+    empty = {f: touch(f) for f in FINGERS}
+    return Cell("mock", arm, gripper, clock, lambda: empty, world=_MockWorld(raw_arm, raw_gripper))
+
+
+Script = Callable[[int, float], dict]
+
+
+def table(rows: Iterable[tuple[int, dict]]) -> Script:
+    """A script from rows (from_tick, {finger: TactileState}); each row holds until the next."""
+    rows = sorted(rows, key=lambda r: r[0])
+
+    def script(tick: int, t: float) -> dict:
+        current = {}
+        for start, states in rows:
+            if start > tick:
+                break
+            current = states
+        return current
+    return script
+
+
+@dataclass
+class TreeHarness:
+    """A tree ticked by hand on a mocked (or simulated) cell with scripted perception."""
+
+    tree: BuiltTree
+    cell: Cell
+    design: DesignModel | None = None
+    _script: Script | None = field(default=None, repr=False)
+    substitutions: list[dict] = field(default_factory=list)  # what `substitute` replaced (path, was, double)
+    _runner: Runner = field(init=False, repr=False)
+
+    @classmethod
+    def from_text(cls, text: str, cell: Cell | None = None, design: DesignModel | None = None,
+                  name: str = "<test tree>", substitute: Substitutions = None) -> TreeHarness:
+        return cls.load(load_tree(text=text, name=name, dataflow=False), cell, design, substitute)
+
+    @classmethod
+    def from_file(cls, path: str | Path, cell: Cell | None = None,
+                  design: DesignModel | None = None, substitute: Substitutions = None) -> TreeHarness:
+        return cls.load(load_tree(path, dataflow=False), cell, design, substitute)
+
+    @classmethod
+    def load(cls, doc, cell: Cell | None, design: DesignModel | None,
+             substitute: Substitutions = None) -> TreeHarness:
+        """`substitute` replaces nodes by path or glob with test doubles: `{PATTERN: SPEC}` or
+        `Rule`s (`assembly.language.substitution`); `harness.substitutions` lists what was replaced."""
+        clear_blackboard()
+        doc, made = apply_substitutions(doc, rules_from(substitute or {}, "TreeHarness"))
+        return cls(build(doc), cell or mock_cell(doc.tick_hz), design or doc.design, substitutions=made)
+
+    def __post_init__(self):
+        if self.design is not None:
+            self.tree.document.design = self.design
+        self._runner = Runner(self.tree, self.cell, sense=self._sense)
+        self._runner.setup()
+
+    # ---- perception ------------------------------------------------------------------------
+    def script(self, script: Script | list) -> TreeHarness:
+        """Script perception: a function (tick, time) -> {finger: TactileState}, or table rows.
+        Fingers the script leaves out come from the cell (the simulated world, or nothing)."""
+        self._script = table(script) if isinstance(script, list) else script
+        return self
+
+    def _sense(self) -> dict:
+        states = dict(self.cell.sense())
+        if self._script is not None:
+            states.update(self._script(self._runner.ticks, self.cell.clock.now()))
+        return states
+
+    # ---- ticking ---------------------------------------------------------------------------
+    def tick(self, n: int = 1) -> Status:
+        for _ in range(n):
+            status = self._runner.tick()
+        return status
+
+    def run_until_done(self, max_ticks: int = 10_000) -> Status:
+        """Tick until the root leaves RUNNING; AssertionError if it never does."""
+        for _ in range(max_ticks):
+            status = self.tick()
+            if status != Status.RUNNING:
+                return status
+        raise AssertionError(f"tree still RUNNING after {max_ticks} ticks at {self.tip()}")
+
+    def halt(self) -> None:
+        """What Ctrl-C does: stop every running node, the arm and the gripper."""
+        self._runner.halt()
+
+    @property
+    def ticks(self) -> int:
+        return self._runner.ticks
+
+    # ---- inspection ------------------------------------------------------------------------
+    @property
+    def arm(self) -> RecordingArm:
+        return self.cell.arm
+
+    @property
+    def gripper(self) -> RecordingGripper:
+        return self.cell.gripper
+
+    def node(self, path: str):
+        try:
+            return self.tree.nodes[path]
+        except KeyError:
+            hint = did_you_mean(path, self.tree.nodes)
+            raise KeyError(f"no node at {path!r}" + (f"; {hint}" if hint else "")) from None
+
+    def status(self, path: str) -> str:
+        return self.node(path).status.name
+
+    def feedback(self, path: str) -> str:
+        return self.node(path).feedback_message
+
+    def assert_status(self, expected: dict[str, str]) -> None:
+        """Compare node statuses by path, reporting every mismatch at once."""
+        wrong = {p: (s, self.status(p)) for p, s in expected.items() if self.status(p) != s.upper()}
+        if wrong:
+            lines = [f"  {p}: expected {e}, got {g} ({self.feedback(p)!r})" for p, (e, g) in wrong.items()]
+            raise AssertionError(f"after tick {self.ticks}:\n" + "\n".join(lines))
+
+    def tip(self) -> str:
+        tip = self.tree.root.tip()
+        return self.tree.path_of(tip) if tip is not None else ""
+
+    def blackboard(self, key: str, default: Any = None) -> Any:
+        return Blackboard.storage.get(key, default)
+
+    def set(self, key: str, value: Any) -> None:
+        """Preset a blackboard value (e.g. /task/element for a skill under test)."""
+        Blackboard.set(key, value)
