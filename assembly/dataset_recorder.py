@@ -16,12 +16,12 @@ from assembly.run.loop import Runner
 from assembly.run.perception_stage import clear_blackboard
 from behaviours.skill_kit import keys
 from drivers.cell_builders import load_cell
-from perception.learning.dataset import Recording
+from perception.learning.dataset import Dataset
 from perception.learning.features import columns, feature_spec, tick_features
 
 
 def record_run(tree_path: str | Path, cell: str = "sim", seed: int = 0, max_time: float = 3600.0,
-               perception: str | None = None) -> Recording:
+               perception: str | None = None) -> Dataset:
     """Run the tree once (simulated perception from contact `signals` or rendered `pixels`, or the
     cell's own) and return its per-tick recording; RuntimeError if the run fails."""
     doc = load_tree(tree_path)
@@ -60,7 +60,7 @@ def record_run(tree_path: str | Path, cell: str = "sim", seed: int = 0, max_time
                          "perception": perception or "cell default"},
               "feature_spec": feature_spec(), "columns": columns(),
               "label_info": world.label_info()}
-    return Recording(header, np.array(stamps), np.zeros(len(rows), np.int32), np.array(segments, np.int32),
+    return Dataset(header, np.array(stamps), np.zeros(len(rows), np.int32), np.array(segments, np.int32),
                      np.array(rows), {n: np.array([row.get(n) for row in labels]) for n in names})
 
 
@@ -69,4 +69,4 @@ def record(tree_path: str | Path, out: str | Path, cell: str = "sim", seed: int 
     """Record `runs` runs (seeds seed, seed+1, ...) of a tree into one file at `out`."""
     parts = [record_run(tree_path, cell, seed + i, perception=perception) for i in range(runs)]
     header = {**parts[0].header, "source": {**parts[0].header["source"], "seeds": list(range(seed, seed + runs))}}
-    return Recording.concatenate(parts, header).save(out)
+    return Dataset.concatenate(parts, header).save(out)

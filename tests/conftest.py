@@ -39,13 +39,13 @@ def tree_file(tmp_path):
 @pytest.fixture(scope="session")
 def record_shortened(tmp_path_factory):
     """Record a demo tree `trees/<name>.yaml` with its repeat count cut from `times[0]` to
-    `times[1]` (a shorter recording for tests); returns the loaded Recording."""
+    `times[1]` (a shorter recording for tests); returns the loaded Dataset."""
     from assembly.dataset_recorder import record
-    from perception.learning.dataset import Recording
+    from perception.learning.dataset import Dataset
 
-    def recorded(name: str, times: tuple[int, int]) -> Recording:
+    def recorded(name: str, times: tuple[int, int]) -> Dataset:
         tree = tmp_path_factory.mktemp(name) / f"{name}.yaml"
         tree.write_text((TREES / f"{name}.yaml").read_text().replace(f"times: {times[0]}", f"times: {times[1]}"))
-        return Recording.load(record(tree, tree.with_suffix(".npz")))
+        return Dataset.load(record(tree, tree.with_suffix(".npz")))
 
     return recorded

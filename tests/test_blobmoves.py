@@ -13,7 +13,7 @@ import yaml
 
 from assembly.cli import main
 from perception.learning.blobmoves import import_logs, read_trial
-from perception.learning.dataset import Recording
+from perception.learning.dataset import Dataset
 
 GRID_X, GRID_Y = np.meshgrid(np.linspace(40, 280, 6), np.linspace(30, 210, 4))
 ORIGINS = np.column_stack([GRID_X.ravel(), GRID_Y.ravel()])  # 24 markers
@@ -53,7 +53,7 @@ def test_logs_become_a_recording_with_one_segment_per_trial(logs, tmp_path):
     right = [i for i, c in enumerate(rec.header["columns"]) if c.startswith("right.cell")]
     left = [i for i, c in enumerate(rec.header["columns"]) if c.startswith("left.cell")]
     assert np.abs(rec.features[:, right]).max() > 1.0 and not rec.features[:, left].any()
-    again = Recording.load(rec.save(tmp_path / "logs.npz"))
+    again = Dataset.load(rec.save(tmp_path / "logs.npz"))
     assert again.header["groups"] == "segment" and len(again) == 240
 
 

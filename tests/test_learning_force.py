@@ -9,14 +9,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from perception.learning.dataset import Recording
+from perception.learning.dataset import Dataset
 from perception.learning.features import columns, feature_spec
 from perception.learning.force import press_ids, train_force
 from perception.learning.models import ModelError, TrainedModel, load_model
 
 
 @pytest.fixture(scope="module")
-def presses(record_shortened) -> Recording:
+def presses(record_shortened) -> Dataset:
     """Eight presses recorded from the press scene."""
     return record_shortened("record_press", (20, 8))
 
@@ -55,18 +55,18 @@ def test_a_recording_with_other_features_is_refused(presses, tmp_path, monkeypat
     path = presses.save(tmp_path / "r.npz")
     monkeypatch.setattr("perception.learning.features.FEATURE_VERSION", 2)
     with pytest.raises(ValueError, match="different features"):
-        Recording.load(path)
+        Dataset.load(path)
     (tmp_path / "junk.npz").write_bytes(b"junk")
     with pytest.raises(ValueError, match="not an fvtree recording"):
-        Recording.load(tmp_path / "junk.npz")
+        Dataset.load(tmp_path / "junk.npz")
 
 
 def test_concatenated_runs_keep_their_segments_apart():
     def part(segments):
         n = len(segments)
-        return Recording({}, np.zeros(n), np.zeros(n, np.int32), np.array(segments, np.int32), np.zeros((n, 2)),
+        return Dataset({}, np.zeros(n), np.zeros(n, np.int32), np.array(segments, np.int32), np.zeros((n, 2)),
                          {"substance": np.array(["peas"] * n)})
-    joined = Recording.concatenate([part([-1, 0, 0, 1]), part([0, -1, 1])], {})
+    joined = Dataset.concatenate([part([-1, 0, 0, 1]), part([0, -1, 1])], {})
     assert joined.segment.tolist() == [-1, 0, 0, 1, 2, -1, 3]
     assert joined.run.tolist() == [0, 0, 0, 0, 1, 1, 1]
 

@@ -10,7 +10,7 @@ import pytest
 
 from assembly.cli import main
 from drivers.sim.scenes.stir import SUBSTANCES, session_batch
-from perception.learning.dataset import Recording
+from perception.learning.dataset import Dataset
 from perception.learning.features import columns
 from perception.learning.stir import PAPER_MODEL, split, train_stir, trial_features, trials
 
@@ -18,7 +18,7 @@ TREES = Path(__file__).resolve().parents[1] / "trees"
 
 
 @pytest.fixture(scope="module")
-def stirred(record_shortened) -> Recording:
+def stirred(record_shortened) -> Dataset:
     """Sixteen trials per bowl (each movement twice)."""
     return record_shortened("record_stir", (40, 16))
 
@@ -56,13 +56,13 @@ def test_the_paper_split_holds_out_48_of_120_trials_stratified():
 
 
 @pytest.fixture(scope="module")
-def another_session(tmp_path_factory) -> Recording:
+def another_session(tmp_path_factory) -> Dataset:
     """Eight trials per bowl recorded in session 1 (another batch of each substance, another skin)."""
     from assembly.dataset_recorder import record
 
     tree = tmp_path_factory.mktemp("session1") / "record_stir.yaml"
     tree.write_text((TREES / "record_stir.yaml").read_text().replace("times: 40", "times: 8"))
-    return Recording.load(record(tree, tree.with_suffix(".npz"), seed=1))
+    return Dataset.load(record(tree, tree.with_suffix(".npz"), seed=1))
 
 
 def test_sessions_differ_in_their_substances_and_skin_and_repeat_with_their_seed():

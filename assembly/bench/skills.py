@@ -23,7 +23,7 @@ from assembly.language.reader import load_tree
 from assembly.run.loop import Runner
 from assembly.run.perception_stage import clear_blackboard
 from drivers.cell_builders import load_cell
-from perception.learning.dataset import Recording
+from perception.learning.dataset import Dataset
 
 TREES = Path(__file__).resolve().parents[2] / "trees"
 
@@ -71,7 +71,7 @@ def inhand(rows: list) -> None:
 def forcelearn(rows: list, work: Path, quick: bool) -> None:
     from perception.learning.force import fit_force, marker_columns, press_ids, split_presses
 
-    rec = Recording.load(record(TREES / "record_press.yaml", work / "press.npz"))
+    rec = Dataset.load(record(TREES / "record_press.yaml", work / "press.npz"))
     x, y, truth = rec.features[:, marker_columns()], rec.label("scale_force").astype(float), rec.labels["true_force"]
     presses = press_ids(rec)
     train, test = split_presses(presses)
@@ -95,7 +95,7 @@ def stirlearn(rows: list, work: Path, quick: bool) -> None:
 
     tree = work / "record_stir.yaml"
     tree.write_text((TREES / "record_stir.yaml").read_text().replace("times: 40", f"times: {8 if quick else 40}"))
-    (x, y), (x_other, y_other) = (trials(Recording.load(record(tree, work / f"stir{seed}.npz", seed=seed)))
+    (x, y), (x_other, y_other) = (trials(Dataset.load(record(tree, work / f"stir{seed}.npz", seed=seed)))
                                   for seed in (0, 1))
     train, test = split(y)
     for name, model in classifiers().items():

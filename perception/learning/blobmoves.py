@@ -30,7 +30,7 @@ import numpy as np
 
 from fileio.errors import FvtreeError
 from fileio.yaml_source import load_file
-from perception.learning.dataset import Recording
+from perception.learning.dataset import Dataset
 from perception.learning.features import columns, feature_spec, tick_features
 from perception.state import FINGERS, MarkerField, TactileState
 from perception.wrench import wrench
@@ -164,7 +164,7 @@ def _state(finger: str, stamp: float, m: np.ndarray, image_size: tuple[int, int]
     return TactileState(finger, stamp, markers, force, torque)
 
 
-def import_logs(paths: list[str | Path]) -> Recording:
+def import_logs(paths: list[str | Path]) -> Dataset:
     """A recording of the trials in `paths` (one segment and one run per file)."""
     if not paths:
         raise LogError("no marker logs given")
@@ -190,4 +190,4 @@ def import_logs(paths: list[str | Path]) -> Recording:
         out_labels["scale_force"] = np.array(loads)
     if any(label != "none" for label in labels):
         out_labels["substance"] = np.array(labels)
-    return Recording(header, np.array(stamps), runs_array, runs_array.copy(), np.array(rows, np.float32), out_labels)
+    return Dataset(header, np.array(stamps), runs_array, runs_array.copy(), np.array(rows, np.float32), out_labels)

@@ -1,6 +1,7 @@
-"""The recording file format (`fvtree record`): one row per tick.
+"""The learning dataset file format (`fvtree record`, `fvtree import-log`, read by `fvtree train`):
+one row per tick.
 
-A recording is a NumPy .npz archive holding
+A dataset is a NumPy .npz archive holding
   header    JSON text: {"format": "fvtree-recording", "version": 1, "feature_spec": {...},
             "columns": [...], "label_names": [...], "source": {tree, cell, scene, seeds},
             "label_info": {...}}  (label_info: e.g. the simulated scale's noise)
@@ -31,7 +32,9 @@ class RecordingError(FvtreeError, ValueError):
 
 
 @dataclass
-class Recording:
+class Dataset:
+    """Per-tick tactile features and labels of one or more recorded runs (the format above)."""
+
     header: dict
     t: np.ndarray
     run: np.ndarray
@@ -59,7 +62,7 @@ class Recording:
         return path
 
     @classmethod
-    def load(cls, path: str | Path) -> Recording:
+    def load(cls, path: str | Path) -> Dataset:
         """Read a recording; ValueError saying why if it is not one or its features differ."""
         try:
             data = np.load(path, allow_pickle=False)
@@ -75,7 +78,7 @@ class Recording:
         return cls(header, data["t"], data["run"], data["segment"], data["features"].astype(float), labels)
 
     @classmethod
-    def concatenate(cls, parts: list[Recording], header: dict) -> Recording:
+    def concatenate(cls, parts: list[Dataset], header: dict) -> Dataset:
         """Join recordings of several runs; segments are renumbered so they stay distinct."""
         offset, segments = 0, []
         for i, part in enumerate(parts):

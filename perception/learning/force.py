@@ -11,7 +11,7 @@ from sklearn.model_selection import GridSearchCV, GroupKFold
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-from perception.learning.dataset import Recording
+from perception.learning.dataset import Dataset
 from perception.learning.features import marker_columns
 from perception.learning.models import TrainedModel
 
@@ -19,7 +19,7 @@ LABEL = "scale_force"
 GRID = {"kernelridge__alpha": [1e-3, 1e-2, 1e-1], "kernelridge__gamma": [1e-3, 3e-3, 1e-2]}
 
 
-def press_ids(rec: Recording, threshold: float = 0.5) -> np.ndarray:
+def press_ids(rec: Dataset, threshold: float = 0.5) -> np.ndarray:
     """Index of the press each tick belongs to: a new press starts where the scale reading
     rises above `threshold` N (the ticks before the first press form press 0 too)."""
     pressed = rec.label(LABEL).astype(float) > threshold
@@ -28,7 +28,7 @@ def press_ids(rec: Recording, threshold: float = 0.5) -> np.ndarray:
     return np.maximum(np.cumsum(rising) - 1, 0)
 
 
-def trial_groups(rec: Recording) -> np.ndarray:
+def trial_groups(rec: Dataset) -> np.ndarray:
     """The group of each tick that is held out whole: its trial for imported marker logs (each
     log one segment), else its press."""
     return rec.segment if rec.header.get("groups") == "segment" else press_ids(rec)
@@ -67,7 +67,7 @@ def fit_force(x: np.ndarray, y: np.ndarray, groups: np.ndarray, max_samples: int
     return search.best_estimator_, {k.split("__")[1]: v for k, v in search.best_params_.items()}
 
 
-def train_force(rec: Recording, max_samples: int = 600, seed: int = 0) -> tuple[TrainedModel, dict]:
+def train_force(rec: Dataset, max_samples: int = 600, seed: int = 0) -> tuple[TrainedModel, dict]:
     """Train on 3 of every 4 presses, test on the rest; returns the model and the report."""
     x = rec.features[:, marker_columns()]
     y = rec.label(LABEL).astype(float)

@@ -23,7 +23,7 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 from sklearn.svm import SVC
 
-from perception.learning.dataset import Recording
+from perception.learning.dataset import Dataset
 from perception.learning.features import GRID, MARKER_CHANNELS, columns
 from perception.learning.models import TrainedModel
 
@@ -80,7 +80,7 @@ def trial_features(rows: np.ndarray) -> np.ndarray:
     return np.concatenate([s.mean(axis=0), spread, texture, texture / (spread + 1e-9)])
 
 
-def trials(rec: Recording) -> tuple[np.ndarray, np.ndarray]:
+def trials(rec: Dataset) -> tuple[np.ndarray, np.ndarray]:
     """(X, y): one row per stirring trial (segment) of the recording, labelled with the
     substance the stick was in for most of it."""
     labels = rec.label(LABEL)
@@ -127,7 +127,7 @@ def evaluate(model, x_train, y_train, x_test, y_test) -> dict:
             "per_class": classification_report(y_test, predicted, output_dict=True, zero_division=0)}
 
 
-def train_stir(rec: Recording, seed: int = 0, test_session: Recording | None = None) -> tuple[TrainedModel, dict]:
+def train_stir(rec: Dataset, seed: int = 0, test_session: Dataset | None = None) -> tuple[TrainedModel, dict]:
     """Train every classifier on the training trials, report each on the held-out ones (every
     trial of `test_session` when given, else the paper's split of `rec`), and return the paper's
     MLP as the model."""

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from perception.learning.dataset import Recording
+from perception.learning.dataset import Dataset
 from perception.learning.models import SUFFIX, ModelError
 
 
@@ -66,12 +66,12 @@ def run(kind: str, data: list[str | Path], out: str | Path, seed: int = 0, test:
     out = Path(out)
     if out.suffix != SUFFIX:
         raise ModelError(f"a model file is {SUFFIX} (plain arrays, no pickle), got {out.name}", str(out))
-    parts = [Recording.load(path) for path in data]
+    parts = [Dataset.load(path) for path in data]
     for path, part in zip(data, parts):
         if part.header.get("columns") != parts[0].header.get("columns"):
             raise ModelError(f"its feature columns differ from those of {data[0]}: record both with this version",
                              str(path))
-    rec = parts[0] if len(parts) == 1 else Recording.concatenate(parts, {
+    rec = parts[0] if len(parts) == 1 else Dataset.concatenate(parts, {
         **parts[0].header, "source": {"recordings": [p.header.get("source", {}) for p in parts]}})
     out.parent.mkdir(parents=True, exist_ok=True)
     if kind == "force":
@@ -83,7 +83,7 @@ def run(kind: str, data: list[str | Path], out: str | Path, seed: int = 0, test:
     elif kind == "stir":
         from perception.learning.stir import plot_stir, train_stir
 
-        model, report = train_stir(rec, seed=seed, test_session=Recording.load(test) if test else None)
+        model, report = train_stir(rec, seed=seed, test_session=Dataset.load(test) if test else None)
         print(format_stir_report(report))
         chart = plot_stir(report, out.with_suffix(".png"))
     else:

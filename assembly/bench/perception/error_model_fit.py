@@ -29,7 +29,7 @@ import numpy as np
 
 from assembly.bench import script
 from assembly.bench.perception import report
-from assembly.bench.perception.pixel_runs import Recording, Tick, first_element_only, record
+from assembly.bench.perception.pixel_runs import PixelRun, Tick, first_element_only, record
 from drivers.sim.models.pipeline_error_model import IMAGE_SCALE, PipelineErrors, image_motion
 from perception.state import FINGERS
 
@@ -156,11 +156,11 @@ def slip_delay(truth: np.ndarray, pipe: np.ndarray, expected: np.ndarray) -> tup
     return (float(np.median(delays)) if delays else 0.0), len(onsets), missed
 
 
-def measure(recordings: list[Recording]) -> tuple[list[dict], PipelineErrors]:
+def measure(runs: list[PixelRun]) -> tuple[list[dict], PipelineErrors]:
     """Per-run error table and the error model fitted to all runs together."""
     rows, pooled = [], []
     markers, objects = [], []
-    for rec in recordings:
+    for rec in runs:
         for finger in FINGERS:
             ticks = rec.ticks[finger]
             m, o = marker_errors(ticks), object_errors(ticks)
@@ -208,13 +208,13 @@ def measure(recordings: list[Recording]) -> tuple[list[dict], PipelineErrors]:
 def run(out_dir: Path, quick: bool = False) -> list[Path]:
     """Record the demo runs in pixel mode, write errors.md/csv and the fitted model (JSON)."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    recordings = []
+    runs = []
     for name in QUICK_RUNS if quick else RUNS:
         tree = TREES / name
         if "for_each_element" in tree.read_text():
             tree = first_element_only(tree, out_dir)
-        recordings.append(record(tree, max_time=20.0 if quick else 120.0))
-    rows, model = measure(recordings)
+        runs.append(record(tree, max_time=20.0 if quick else 120.0))
+    rows, model = measure(runs)
     written = report.write_table(out_dir, "errors", rows[:-1], "Pipeline errors in pixel mode against the truth")
     written += report.write_table(out_dir, "slip_errors", rows[-1:], "Slip against the image motion")
     model_path = out_dir / "pipeline_errors.json"

@@ -33,7 +33,7 @@ class Tick:
 
 
 @dataclass
-class Recording:
+class PixelRun:
     """The ticks of one run, per finger, and how the run ended."""
 
     tree: str
@@ -72,7 +72,7 @@ def _order(model_origin: np.ndarray, pipeline_origin: np.ndarray) -> np.ndarray:
     return d.argmin(axis=1)
 
 
-def record(tree: Path, seed: int = 0, max_time: float = 120.0) -> Recording:
+def record(tree: Path, seed: int = 0, max_time: float = 120.0) -> PixelRun:
     """Run `tree` in pixel mode on the simulated cell and record every tick beside its truth."""
     doc = load_tree(tree)
     clear_blackboard()
@@ -102,4 +102,4 @@ def record(tree: Path, seed: int = 0, max_time: float = 120.0) -> Recording:
         result = runner.run()
     finally:
         cell.close()
-    return Recording(tree.name, result.status, ticks, 1.0 / doc.tick_hz)
+    return PixelRun(tree.name, result.status, ticks, 1.0 / doc.tick_hz)
