@@ -10,12 +10,10 @@ from pathlib import Path
 import numpy as np
 from py_trees.blackboard import Blackboard
 
-from assembly.language.build import build
-from assembly.language.reader import load_tree
-from assembly.run.loop import Runner
-from assembly.run.perception_stage import clear_blackboard
+from assembly.run.options import RunOptions
+from assembly.run.session import Run
 from behaviours.skill_kit import keys
-from drivers.cell_builders import load_cell
+from drivers.cell import Cell
 from perception.learning.dataset import Dataset
 from perception.learning.features import columns, feature_spec, tick_features
 
@@ -23,12 +21,7 @@ from perception.learning.features import columns, feature_spec, tick_features
 def record_run(tree_path: str | Path, cell: str = "sim", seed: int = 0, max_time: float = 3600.0,
                perception: str | None = None) -> Dataset:
     """Run the tree once (simulated perception from contact `signals` or rendered `pixels`, or the
-    cell's own) and return its per-tick recording; RuntimeError if the run fails."""
-    doc = load_tree(tree_path)
-    clear_blackboard()
-    scene_args = doc.design.scene_args() if doc.design is not None else {}
-    the_cell = load_cell(cell, doc.tick_hz, doc.scene, scene_args, seed=seed, perception=perception)
-    world = the_cell.world
+    cell's own) and return its per-tick dataset; RuntimeError if the run fails."""
     rows, stamps, labels, segments = [], [], [], []
 
     def trial() -> int:
@@ -36,21 +29,20 @@ def record_run(tree_path: str | Path, cell: str = "sim", seed: int = 0, max_time
         current = Blackboard.storage.get(keys.STIR_TRIAL)
         return current["trial"] if current and current.get("active") else -1
 
-    def sense():
+    def sense(the_cell: Cell) -> dict:
         if rows:
             segments.append(trial())
         states = the_cell.sense()
         rows.append(tick_features(states["left"], states["right"]))
         stamps.append(the_cell.clock.now())
-        labels.append(world.labels())
+        labels.append(the_cell.world.labels())
         return states
 
-    runner = Runner(build(doc), the_cell, sense=sense, max_time=max_time)
-    try:
-        runner.setup()
-        result = runner.run()
-    finally:
-        the_cell.close()
+    options = RunOptions(cell=cell, seed=seed, perception=perception, max_time=max_time, runs_dir=None,
+                         record=False, plots=False, quiet=True, supervised=False)
+    with Run(tree_path, options, sense=sense) as run:
+        result = run.loop()
+        world, doc = run.cell.world, run.doc
     segments.append(trial())
     if result.status != "SUCCESS":
         raise RuntimeError(f"the recording run of {tree_path} (seed {seed}) ended {result.status} at "
@@ -61,7 +53,7 @@ def record_run(tree_path: str | Path, cell: str = "sim", seed: int = 0, max_time
               "feature_spec": feature_spec(), "columns": columns(),
               "label_info": world.label_info()}
     return Dataset(header, np.array(stamps), np.zeros(len(rows), np.int32), np.array(segments, np.int32),
-                     np.array(rows), {n: np.array([row.get(n) for row in labels]) for n in names})
+                   np.array(rows), {n: np.array([row.get(n) for row in labels]) for n in names})
 
 
 def record(tree_path: str | Path, out: str | Path, cell: str = "sim", seed: int = 0, runs: int = 1,

@@ -3,6 +3,7 @@ the code stays clean under ruff's rules (pyproject.toml's [tool.ruff])."""
 
 from __future__ import annotations
 
+import ast
 import subprocess
 import sys
 from pathlib import Path
@@ -24,3 +25,22 @@ def test_ruff_finds_nothing():
     done = subprocess.run([sys.executable, "-m", "ruff", "check", "--no-cache", str(ROOT)], capture_output=True,
                           text=True, check=False)
     assert done.returncode == 0, done.stdout + done.stderr
+
+
+def test_skills_import_only_the_skill_kit_of_behaviours():
+    """`behaviours/` lists skills; what they share is in `behaviours/skill_kit/`, which imports no
+    skill, and no skill imports another."""
+    wrong = []
+    for path in sorted((ROOT / "behaviours").rglob("*.py")):
+        if path == ROOT / "behaviours" / "__init__.py":  # it imports every skill to register them
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module:
+                names = [node.module] if node.module != "behaviours" else [f"behaviours.{a.name}" for a in node.names]
+            elif isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            else:
+                continue
+            wrong += [f"{path.relative_to(ROOT)}:{node.lineno} imports {name}" for name in names
+                      if name.startswith("behaviours.") and not name.startswith("behaviours.skill_kit")]
+    assert not wrong, "\n".join(wrong)

@@ -18,6 +18,7 @@ from assembly.errors import TreeError
 from assembly.language.build import build
 from assembly.language.reader import load_tree
 from assembly.run.loop import Runner
+from assembly.run.options import RunOptions
 from assembly.run.session import run_tree
 from drivers.cell_builders import load_cell
 from fileio.json_files import atomic_write_json
@@ -32,19 +33,19 @@ def lines(path: Path) -> list[dict]:
 
 @pytest.fixture(scope="module")
 def full_run(tmp_path_factory):
-    return run_tree(ASSEMBLY, runs_dir=tmp_path_factory.mktemp("runs"), quiet=True)
+    return run_tree(ASSEMBLY, RunOptions(runs_dir=tmp_path_factory.mktemp("runs"), quiet=True))
 
 
 def test_assembly_places_every_element_at_its_maximum_load(full_run):
-    assert full_run["status"] == "SUCCESS"
-    for eid, e in full_run["elements"].items():
+    assert full_run.status == "SUCCESS"
+    for eid, e in full_run.elements.items():
         assert e["status"] == "placed", eid
         assert e["regret"] < 0.01, f"{eid}: force regret {e['regret']:.2%}"
         assert abs(e["position"] - e["true_best_position"]) < 0.03
 
 
 def test_run_directory_holds_the_as_built_model_and_logs(full_run):
-    run_dir = Path(full_run["run_dir"])
+    run_dir = Path(full_run.run_dir)
     asbuilt = DesignModel.load(run_dir / "asbuilt.json")
     for eid in ("E1", "E2"):
         node = asbuilt.graph.nodes[eid]
@@ -60,45 +61,45 @@ def test_run_directory_holds_the_as_built_model_and_logs(full_run):
 
 
 def test_simulated_runs_are_deterministic(full_run, tmp_path):
-    again = run_tree(ASSEMBLY, runs_dir=tmp_path, quiet=True, plots=False)
-    assert again["ticks"] == full_run["ticks"]
+    again = run_tree(ASSEMBLY, RunOptions(runs_dir=tmp_path, quiet=True, plots=False))
+    assert again.ticks == full_run.ticks
     for eid in ("E1", "E2"):
-        assert again["elements"][eid]["position"] == full_run["elements"][eid]["position"]
+        assert again.elements[eid]["position"] == full_run.elements[eid]["position"]
 
 
 def test_estop_halts_then_resume_skips_placed_elements(tmp_path):
-    first = run_tree(ASSEMBLY, runs_dir=tmp_path, estop_at=100.0, quiet=True, plots=False)
-    assert first["status"] == "ESTOP"
-    assert "/build/prop/" in first["where"]
-    assert first["elements"]["E1"]["status"] == "placed"
-    assert first["elements"]["E2"]["status"] == "planned"
-    run_dir = Path(first["run_dir"])
+    first = run_tree(ASSEMBLY, RunOptions(runs_dir=tmp_path, estop_at=100.0, quiet=True, plots=False))
+    assert first.status == "ESTOP"
+    assert "/build/prop/" in first.where
+    assert first.elements["E1"]["status"] == "placed"
+    assert first.elements["E2"]["status"] == "planned"
+    run_dir = Path(first.run_dir)
     assert lines(run_dir / "events.jsonl")[-2]["event"] == "halted"
 
-    second = run_tree(ASSEMBLY, runs_dir=tmp_path, resume="latest", quiet=True, plots=False)
-    assert second["status"] == "SUCCESS" and second["run_dir"] == first["run_dir"]
+    second = run_tree(ASSEMBLY, RunOptions(runs_dir=tmp_path, resume="latest", quiet=True, plots=False))
+    assert second.status == "SUCCESS" and second.run_dir == first.run_dir
     placed = [e["element"] for e in lines(run_dir / "events.jsonl") if e["event"] == "placed"]
     assert placed == ["E1", "E2"]  # E1 was not built twice
-    assert second["elements"]["E2"]["regret"] < 0.01
-    assert second["elements"]["E1"] == first["elements"]["E1"]  # judged when placed, not again
+    assert second.elements["E2"]["regret"] < 0.01
+    assert second.elements["E1"] == first.elements["E1"]  # judged when placed, not again
 
-    third = run_tree(ASSEMBLY, runs_dir=tmp_path, resume="latest", quiet=True, plots=False)
-    assert third["nothing_to_do"] and third["status"] == "SUCCESS"
+    third = run_tree(ASSEMBLY, RunOptions(runs_dir=tmp_path, resume="latest", quiet=True, plots=False))
+    assert third.nothing_to_do and third.status == "SUCCESS"
     assert main(["run", ASSEMBLY, "--runs-dir", str(tmp_path), "--resume"]) == 0
 
 
 def test_a_resume_never_picks_again_an_element_left_being_released(tmp_path, capsys):
-    first = run_tree(ASSEMBLY, runs_dir=tmp_path, estop_at=78.5, quiet=True, plots=False)
-    assert first["status"] == "ESTOP" and first["where"].endswith("/prop/place")
-    assert first["elements"]["E1"]["status"] == "placing"
+    first = run_tree(ASSEMBLY, RunOptions(runs_dir=tmp_path, estop_at=78.5, quiet=True, plots=False))
+    assert first.status == "ESTOP" and first.where.endswith("/prop/place")
+    assert first.elements["E1"]["status"] == "placing"
     assert main(["run", ASSEMBLY, "--runs-dir", str(tmp_path), "--resume"]) == 2
     err = capsys.readouterr().err
     assert "asbuilt.json: element E1 was being released on plate P1 at [" in err
     assert "--mark E1=placed" in err and "--mark E1=planned" in err
 
-    second = run_tree(ASSEMBLY, runs_dir=tmp_path, resume="latest", marks={"E1": "placed"}, quiet=True, plots=False)
-    assert second["status"] == "SUCCESS"
-    events = lines(Path(first["run_dir"]) / "events.jsonl")
+    second = run_tree(ASSEMBLY, RunOptions(runs_dir=tmp_path, resume="latest", marks={"E1": "placed"}, quiet=True, plots=False))
+    assert second.status == "SUCCESS"
+    events = lines(Path(first.run_dir) / "events.jsonl")
     assert [e["element"] for e in events if e["event"] == "placing"] == ["E1", "E2"]
     assert [(e["element"], e["status"]) for e in events if e["event"] == "marked"] == [("E1", "placed")]
 
@@ -116,24 +117,24 @@ def tree_copy(tmp_path: Path, name: str) -> Path:
 def test_resume_takes_the_run_of_exactly_this_tree_unchanged(tmp_path):
     runs = tmp_path / "runs"
     asm, asm_b = tree_copy(tmp_path, "asm"), tree_copy(tmp_path, "asm_b")
-    mine = run_tree(str(asm), runs_dir=runs, estop_at=5.0, quiet=True, plots=False)
-    run_tree(str(asm_b), runs_dir=runs, estop_at=5.0, quiet=True, plots=False)  # later, and a prefix match
-    resumed = run_tree(str(asm), runs_dir=runs, resume="latest", estop_at=10.0, quiet=True, plots=False)
-    assert resumed["run_dir"] == mine["run_dir"]
+    mine = run_tree(str(asm), RunOptions(runs_dir=runs, estop_at=5.0, quiet=True, plots=False))
+    run_tree(str(asm_b), RunOptions(runs_dir=runs, estop_at=5.0, quiet=True, plots=False))  # later, and a prefix match
+    resumed = run_tree(str(asm), RunOptions(runs_dir=runs, resume="latest", estop_at=10.0, quiet=True, plots=False))
+    assert resumed.run_dir == mine.run_dir
 
     asm.write_text(asm.read_text().replace("scan_step: 0.002", "scan_step: 0.003"))
     with pytest.raises(TreeError, match="the tree .* changed since this run started"):
-        run_tree(str(asm), runs_dir=runs, resume="latest", quiet=True, plots=False)
+        run_tree(str(asm), RunOptions(runs_dir=runs, resume="latest", quiet=True, plots=False))
     with pytest.raises(TreeError, match="no earlier run of 'asm_c'"):
-        run_tree(str(tree_copy(tmp_path, "asm_c")), runs_dir=runs, resume="latest", quiet=True, plots=False)
+        run_tree(str(tree_copy(tmp_path, "asm_c")), RunOptions(runs_dir=runs, resume="latest", quiet=True, plots=False))
 
 
 def test_a_tree_name_cannot_place_its_run_directory_outside_the_runs_directory(tmp_path):
     tree = tmp_path / "escape.yaml"
     tree.write_text('version: 1\nname: "../../x"\nroot: {skill: move_to, name: go, params: {offset: [0.01, 0, 0]}}\n')
-    summary = run_tree(str(tree), runs_dir=tmp_path / "runs", quiet=True, plots=False)
-    run_dir = Path(summary["run_dir"])
-    assert summary["status"] == "SUCCESS" and run_dir.parent == tmp_path / "runs"
+    summary = run_tree(str(tree), RunOptions(runs_dir=tmp_path / "runs", quiet=True, plots=False))
+    run_dir = Path(summary.run_dir)
+    assert summary.status == "SUCCESS" and run_dir.parent == tmp_path / "runs"
     assert run_dir.name.endswith("-x") and not (tmp_path / "x").exists()
 
 

@@ -19,6 +19,7 @@ from mcap.reader import make_reader
 
 from assembly.cli import main
 from assembly.observe.readback import read_recording
+from assembly.run.options import RunOptions
 from assembly.run.perception_stage import clear_blackboard
 from assembly.run.session import run_tree
 
@@ -33,7 +34,7 @@ SPARSE = {"/tree/status": "fvtree.NodeStatus", "/tree/transitions": "foxglove.Lo
 
 def _run(tree: str, runs: Path, **options) -> Path:
     clear_blackboard()
-    return Path(run_tree(str(TREES / tree), runs_dir=runs, plots=False, quiet=True, **options)["run_dir"])
+    return Path(run_tree(str(TREES / tree), RunOptions(runs_dir=runs, plots=False, quiet=True, **options)).run_dir)
 
 
 def _read(path: Path) -> tuple[dict, dict[str, list[tuple[int, dict]]]]:

@@ -19,6 +19,7 @@ from assembly.design import bridge as bridge_module
 from assembly.language.build import build
 from assembly.language.reader import load_tree
 from assembly.run.loop import Runner
+from assembly.run.options import RunOptions
 from assembly.run.session import run_tree
 from behaviours.vis_scan import VisScan
 from drivers.cell_builders import load_cell
@@ -162,10 +163,10 @@ def test_a_failed_as_built_write_halts_the_run_with_the_placement_in_the_log(tmp
         original(path, data)
 
     monkeypatch.setattr(bridge_module, "atomic_write_json", read_only)
-    summary = run_tree(ASSEMBLY, runs_dir=tmp_path, quiet=True, plots=False)
-    assert summary["status"] == "CRASHED" and "cannot write the as-built model" in summary["message"]
-    assert "the placing record of E1 is in" in summary["message"] and summary["where"].endswith("/elements")
-    run_dir = Path(summary["run_dir"])
+    summary = run_tree(ASSEMBLY, RunOptions(runs_dir=tmp_path, quiet=True, plots=False))
+    assert summary.status == "CRASHED" and "cannot write the as-built model" in summary.message
+    assert "the placing record of E1 is in" in summary.message and summary.where.endswith("/elements")
+    run_dir = Path(summary.run_dir)
     events = lines(run_dir / "events.jsonl")
     assert next(e["event"] for e in events if e.get("element") == "E1") == "placing"
     assert events[-2]["event"] == "crashed"
@@ -185,9 +186,9 @@ def test_when_the_event_log_fails_too_the_placement_goes_to_stderr(tmp_path, mon
         original(self, *args)
 
     monkeypatch.setattr(bridge_module.DesignBridge, "record_placing", record_placing)
-    summary = run_tree(ASSEMBLY, runs_dir=tmp_path, quiet=True, plots=False)
+    summary = run_tree(ASSEMBLY, RunOptions(runs_dir=tmp_path, quiet=True, plots=False))
     err = capsys.readouterr().err
-    assert summary["status"] == "CRASHED" and "the placing record of E1 is in stderr" in summary["message"]
+    assert summary.status == "CRASHED" and "the placing record of E1 is in stderr" in summary.message
     assert '"event": "placing", "element": "E1"' in err
 
 

@@ -15,18 +15,19 @@ from pathlib import Path
 import pytest
 
 from assembly.bench.perception.pixel_runs import first_element_only
+from assembly.run.options import RunOptions
 from assembly.run.session import run_tree
 
 TREES = Path(__file__).resolve().parents[1] / "trees"
 
 
 def _not_dropped(summary: dict) -> None:
-    metrics = summary["metrics"]
+    metrics = summary.metrics
     assert not any(v is True for k, v in metrics.items() if "dropped" in k or "lost" in k), metrics
 
 
 def _placed_near_the_best_point(summary: dict) -> None:
-    for eid, element in summary["elements"].items():
+    for eid, element in summary.elements.items():
         if element["status"] == "placed":
             assert element["regret"] < 0.01, (eid, element)
 
@@ -34,18 +35,18 @@ def _placed_near_the_best_point(summary: dict) -> None:
 def _tracked_to_within(mm: float) -> Callable[[dict], None]:
     def check(summary: dict) -> None:
         _not_dropped(summary)
-        assert summary["metrics"]["tracking error final (mm)"] < mm, summary["metrics"]
+        assert summary.metrics["tracking error final (mm)"] < mm, summary.metrics
     return check
 
 
 def _pressed_to(target: float, tolerance: float) -> Callable[[dict], None]:
     def check(summary: dict) -> None:
-        assert abs(summary["metrics"]["force on the scale (N)"] - target) < tolerance, summary["metrics"]
+        assert abs(summary.metrics["force on the scale (N)"] - target) < tolerance, summary.metrics
     return check
 
 
 def _stirred_all_bowls(summary: dict) -> None:
-    assert summary["metrics"]["dips"] == 3, summary["metrics"]
+    assert summary.metrics["dips"] == 3, summary.metrics
 
 
 # What, beyond SUCCESS, each demo must show in its scene's truth (trees not listed: SUCCESS only).
@@ -74,8 +75,8 @@ def test_demo_tree_does_its_task_in_pixel_mode(name, tmp_path):
     tree = TREES / name
     if "for_each_element" in tree.read_text():
         tree = first_element_only(tree, tmp_path)
-    summary = run_tree(str(tree), perception="pixels", runs_dir=tmp_path / "runs", plots=False, quiet=True)
-    assert summary["status"] == "SUCCESS", (summary["status"], summary["where"], summary["message"])
+    summary = run_tree(str(tree), RunOptions(perception="pixels", runs_dir=tmp_path / "runs", plots=False, quiet=True))
+    assert summary.status == "SUCCESS", (summary.status, summary.where, summary.message)
     CHECKS.get(name, lambda _: None)(summary)
-    if summary["elements"]:
-        assert any(e["status"] == "placed" for e in summary["elements"].values()), summary["elements"]
+    if summary.elements:
+        assert any(e["status"] == "placed" for e in summary.elements.values()), summary.elements

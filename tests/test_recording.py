@@ -19,6 +19,7 @@ import pytest
 from assembly.observe.readback import read_recording
 from assembly.observe.scene3d import ELEMENT_COLOURS
 from assembly.observe.tree_graph import STATUS_COLOURS
+from assembly.run.options import RunOptions
 from assembly.run.session import run_tree
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -32,8 +33,8 @@ def assembly_run(tmp_path_factory) -> tuple[dict, Path, dict]:
     from assembly.run.perception_stage import clear_blackboard
 
     clear_blackboard()
-    summary = run_tree(str(ASSEMBLY), runs_dir=tmp_path_factory.mktemp("runs"), plots=False, quiet=True)
-    run_dir = Path(summary["run_dir"])
+    summary = run_tree(str(ASSEMBLY), RunOptions(runs_dir=tmp_path_factory.mktemp("runs"), plots=False, quiet=True))
+    run_dir = Path(summary.run_dir)
     return summary, run_dir, read_recording(run_dir / "recording.rrd")
 
 
@@ -66,7 +67,7 @@ def test_every_kind_of_data_is_recorded(assembly_run):
 
 def test_one_row_per_tick_on_both_timelines(assembly_run):
     summary, _, rec = assembly_run
-    ticks = summary["ticks"]
+    ticks = summary.ticks
     for entity in ("robot/pose", "fv/left/force", "fv/right/markers", "cell/tool"):
         rows = [r for r in rec[entity] if r["tick"] is not None and "Scalars:scalars" in r
                 or "Arrows2D:vectors" in r and r["Arrows2D:vectors"] is not None
@@ -162,8 +163,8 @@ def test_a_killed_run_keeps_a_readable_recording(tmp_path):
 
 
 def test_no_record_writes_no_recording(tmp_path):
-    summary = run_tree(str(ASSEMBLY), runs_dir=tmp_path, plots=False, quiet=True, record=False, max_time=1.0)
-    assert not list(Path(summary["run_dir"]).glob("*.rrd"))
+    summary = run_tree(str(ASSEMBLY), RunOptions(runs_dir=tmp_path, plots=False, quiet=True, record=False, max_time=1.0))
+    assert not list(Path(summary.run_dir).glob("*.rrd"))
 
 
 def test_the_load_profile_grows_during_the_scan(assembly_run):
@@ -182,23 +183,23 @@ def test_the_end_of_the_run_is_recorded(assembly_run):
     """The `end` event (status after the scene's verdict, where, message), after the last tick, as in the event log."""
     summary, run_dir, rec = assembly_run
     last = rec["events"][-1]
-    assert last["tick"] == summary["ticks"] and last["TextLog:level"] == ["INFO"]
+    assert last["tick"] == summary.ticks and last["TextLog:level"] == ["INFO"]
     kind, details = last["TextLog:text"][0].split(" ", 1)
     logged = _jsonl(run_dir / "events.jsonl")[-1]
     assert kind == logged["event"] == "end"
     assert json.loads(details) == {k: v for k, v in logged.items() if k not in ("time", "event")}
-    assert json.loads(details)["status"] == summary["status"] == "SUCCESS"
+    assert json.loads(details)["status"] == summary.status == "SUCCESS"
 
 
 def test_a_run_without_an_event_log_records_its_end(tmp_path):
     """A tree with no design has no event log: the session tells the recorder how the run ended."""
-    summary = run_tree(str(ROOT / "trees" / "hold.yaml"), runs_dir=tmp_path, plots=False, quiet=True, max_time=1.0)
-    rec = read_recording(Path(summary["run_dir"]) / "recording.rrd", ["events"])
+    summary = run_tree(str(ROOT / "trees" / "hold.yaml"), RunOptions(runs_dir=tmp_path, plots=False, quiet=True, max_time=1.0))
+    rec = read_recording(Path(summary.run_dir) / "recording.rrd", ["events"])
     kinds = [r["TextLog:text"][0].split()[0] for r in rec["events"]]
     assert kinds[-2:] == ["halted", "end"]  # stopped by max_time: the halt, then the end after the halt's tick
     halt, end = rec["events"][-2:]
-    assert end["tick"] == halt["tick"] + 1 >= summary["ticks"] and end["TextLog:level"] == ["WARN"]
-    assert json.loads(end["TextLog:text"][0].split(" ", 1)[1])["status"] == summary["status"] == "TIMEOUT"
+    assert end["tick"] == halt["tick"] + 1 >= summary.ticks and end["TextLog:level"] == ["WARN"]
+    assert json.loads(end["TextLog:text"][0].split(" ", 1)[1])["status"] == summary.status == "TIMEOUT"
 
 
 def test_reading_only_some_entities(assembly_run):

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from assembly.observe.readback import read_recording
+from assembly.run.options import RunOptions
 from assembly.run.perception_stage import clear_blackboard
 from assembly.run.session import run_tree
 
@@ -20,9 +21,8 @@ SECONDS = 3.0  # of cell time: 90 ticks at 30 Hz
 
 def _recorded(tmp_path: Path, perception: str, hz: float) -> dict:
     clear_blackboard()
-    summary = run_tree(str(HOLD), perception=perception, runs_dir=tmp_path, max_time=SECONDS, plots=False,
-                       quiet=True, record_images=hz)
-    return read_recording(Path(summary["run_dir"]) / "recording.rrd")
+    summary = run_tree(str(HOLD), RunOptions(perception=perception, runs_dir=tmp_path, max_time=SECONDS, plots=False, quiet=True, record_images=hz))
+    return read_recording(Path(summary.run_dir) / "recording.rrd")
 
 
 def _decoded(row: dict) -> np.ndarray:

@@ -464,6 +464,7 @@ def test_a_heavy_plate_fails_naming_the_element_without_a_regrasp(tmp_path):
 def test_find_max_load_stops_the_scan_when_the_arm_feels_too_much_force(tmp_path):
     """The arm's force readback guards the scan too: with a 5 N ceiling the first plate's load
     stops it, and the element is not placed."""
+    from assembly.run.options import RunOptions
     from assembly.run.session import run_tree
 
     trees = Path(__file__).resolve().parents[1] / "trees"
@@ -476,9 +477,9 @@ def test_find_max_load_stops_the_scan_when_the_arm_feels_too_much_force(tmp_path
     (tmp_path / "subtrees" / "prop_plate.yaml").write_text(
         subtree.replace("name: find_load, params: {", "name: find_load, params: {max_scan_force: 5.0, "))
     (tmp_path / "assembly.yaml").write_text((trees / "assembly.yaml").read_text())
-    summary = run_tree(str(tmp_path / "assembly.yaml"), runs_dir=tmp_path / "runs", plots=False, quiet=True)
-    assert summary["status"] == "FAILURE" and "over max_scan_force 5 N" in summary["message"]
-    assert summary["elements"]["E1"]["status"] == "planned"
+    summary = run_tree(str(tmp_path / "assembly.yaml"), RunOptions(runs_dir=tmp_path / "runs", plots=False, quiet=True))
+    assert summary.status == "FAILURE" and "over max_scan_force 5 N" in summary.message
+    assert summary.elements["E1"]["status"] == "planned"
 
 
 def test_a_scan_shorter_than_the_smoothing_window_still_gives_a_peak():

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from assembly.cli import main
-from assembly.outcome.verdict import TASK_FAILED
+from assembly.outcome.verdict import TASK_FAILED, Verdict
+from assembly.run.options import RunOptions
 from assembly.run.session import run_tree
 from drivers.sim.scenes.assembly import AssemblyScene
 
@@ -28,10 +29,10 @@ def _object_track(tmp_path: Path, cell: str) -> Path:
 
 
 def test_a_successful_run_reports_the_tolerances_it_was_judged_by(tmp_path):
-    summary = run_tree(str(TREES / "object_track.yaml"), runs_dir=tmp_path, quiet=True, plots=False)
-    assert summary["status"] == "SUCCESS"
-    assert summary["truth"] == {"tolerances": {"max_final_error_mm": 20.0}, "shortfalls": []}
-    written = json.loads((Path(summary["run_dir"]) / "summary.json").read_text())
+    summary = run_tree(str(TREES / "object_track.yaml"), RunOptions(runs_dir=tmp_path, quiet=True, plots=False))
+    assert summary.status == "SUCCESS"
+    assert summary.truth == Verdict({"max_final_error_mm": 20.0}, [])
+    written = json.loads((Path(summary.run_dir) / "summary.json").read_text())
     assert written["truth"]["tolerances"] == {"max_final_error_mm": 20.0}
 
 
@@ -60,9 +61,9 @@ root:
     - {skill: move_to, name: lift, params: {offset: [0.0, 0.0, 0.05], speed: 0.05}}
     - {skill: release, name: let_go}
 """)
-    summary = run_tree(str(tree), runs_dir=tmp_path, quiet=True, plots=False)
-    assert summary["status"] == "FAILURE" and "tree_status" not in summary
-    assert summary["truth"]["shortfalls"] == ["the box was dropped"]
+    summary = run_tree(str(tree), RunOptions(runs_dir=tmp_path, quiet=True, plots=False))
+    assert summary.status == "FAILURE" and summary.tree_status is None
+    assert summary.truth.shortfalls == ["the box was dropped"]
 
 
 @pytest.mark.parametrize("setting, message", [
@@ -119,5 +120,5 @@ def test_scene_option_replaces_the_trees_scene(tmp_path, capsys):
     tree = str(TREES / "hold.yaml")
     assert main(["run", tree, "--scene", "hol", "--runs-dir", str(tmp_path)]) == 2
     assert "--scene hol: no simulated scene 'hol' (did you mean 'hold'?)" in capsys.readouterr().err
-    summary = run_tree(tree, scene="inhand", runs_dir=tmp_path, quiet=True, plots=False)
-    assert "turned in the hand (deg)" in summary["metrics"]
+    summary = run_tree(tree, RunOptions(scene="inhand", runs_dir=tmp_path, quiet=True, plots=False))
+    assert "turned in the hand (deg)" in summary.metrics

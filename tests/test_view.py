@@ -23,6 +23,7 @@ import pytest
 
 from assembly.observe.readback import read_recording
 from assembly.observe.replay import recording_from_logs, run_recordings, start_viewer
+from assembly.run.options import RunOptions
 from assembly.run.session import run_tree
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -38,9 +39,8 @@ def free_port() -> int:
 @pytest.fixture(scope="module")
 def short_run(tmp_path_factory) -> Path:
     """The first 20 s of the simulated assembly, recorded: its run directory."""
-    summary = run_tree(str(ASSEMBLY), runs_dir=tmp_path_factory.mktemp("runs"), plots=False, quiet=True,
-                       max_time=20.0)
-    return Path(summary["run_dir"])
+    summary = run_tree(str(ASSEMBLY), RunOptions(runs_dir=tmp_path_factory.mktemp("runs"), plots=False, quiet=True, max_time=20.0))
+    return Path(summary.run_dir)
 
 
 def _get(url: str) -> tuple[int, bytes]:
@@ -127,9 +127,8 @@ def test_live_run_renders_in_headless_chromium(tmp_path):
 
     viewer = start_viewer([], web_port=free_port(), grpc_port=free_port())
     try:
-        summary = run_tree(str(ASSEMBLY), runs_dir=tmp_path, plots=False, quiet=True, max_time=15.0,
-                           live=viewer.grpc)
-        assert summary["ticks"] > 0
+        summary = run_tree(str(ASSEMBLY), RunOptions(runs_dir=tmp_path, plots=False, quiet=True, max_time=15.0, live=viewer.grpc))
+        assert summary.ticks > 0
         png = screenshot(viewer.page, tmp_path / "live.png", wait=120.0, ready=_rendered)
     finally:
         viewer.stop()

@@ -8,49 +8,32 @@ recording.csv, recording.md and recording.png. Target: >= 100x real time with re
 from __future__ import annotations
 
 import csv
-import gc
 import statistics
 import tempfile
 import time
 from pathlib import Path
 
-from assembly.language.build import build
-from assembly.language.reader import load_tree
-from assembly.observe.recorder import RunRecorder
-from assembly.run.loop import Runner
-from assembly.run.perception_stage import clear_blackboard
-from assembly.run.supervisor import Supervision
-from drivers.cell_builders import load_cell
+from assembly.observe.recorder import RECORDING_FILE
+from assembly.run.options import RunOptions
+from assembly.run.session import Run
 
 TREE = Path(__file__).resolve().parents[2] / "trees" / "assembly.yaml"
 REPEATS = 3
 QUICK_SECONDS = 20.0  # --quick: the first seconds of cell time only
 
 
-def one_run(record_to: Path | None, max_time: float = 3600.0) -> dict:
-    """One supervised assembly as `fvtree run` ticks it (heap frozen), recorded to `record_to` (None:
-    not recorded): its figures."""
-    doc = load_tree(TREE)
-    clear_blackboard()
-    cell = load_cell("sim", doc.tick_hz, doc.scene, doc.design.scene_args(), seed=0)
-    built = build(doc)
-    recorder = RunRecorder(built, cell, record_to, design=doc.design) if record_to else None
-    runner = Runner(built, cell, supervision=Supervision.of_cell("sim"), max_time=max_time, recorder=recorder)
-    runner.setup()
-    gc.collect()  # as `fvtree run` does (session._frozen_heap): no full collections over the heap so far
-    gc.freeze()
-    cpu = time.process_time()
-    try:
-        result = runner.run()
-    finally:
+def one_run(runs_dir: Path, record: bool, max_time: float = 3600.0) -> dict:
+    """One assembly run as `fvtree run` runs it (supervised, with its run directory under `runs_dir`,
+    heap frozen), recorded or not: its figures."""
+    options = RunOptions(runs_dir=runs_dir, record=record, max_time=max_time, plots=False, quiet=True)
+    with Run(TREE, options) as run:
+        cpu = time.process_time()
+        result = run.loop()
         cpu = time.process_time() - cpu
-        gc.unfreeze()
-        cell.close()
-    if recorder is not None:
-        recorder.event("end", status=result.status, where=result.where, message=result.message)
-        recorder.finish()
-    size = record_to.stat().st_size if record_to else 0
-    return {"recording": record_to is not None, "status": result.status, "ticks": result.ticks,
+        run.finish(result)
+    recording = run.run_dir / RECORDING_FILE
+    size = recording.stat().st_size if record else 0
+    return {"recording": record, "status": result.status, "ticks": result.ticks,
             "cell_time_s": result.sim_time, "wall_s": result.wall_time, "cpu_s": cpu,
             "rtf_wall": result.sim_time / result.wall_time, "rtf_cpu": result.sim_time / max(cpu, 1e-9),
             "ms_per_tick": 1e3 * result.wall_time / max(result.ticks, 1),
@@ -62,9 +45,9 @@ def run(out: Path, quick: bool = False) -> list[Path]:
     max_time = QUICK_SECONDS if quick else 3600.0
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for i in range(REPEATS):
-            rows.append(one_run(None, max_time))
-            rows.append(one_run(Path(tmp) / f"run{i}.rrd", max_time))
+        for _ in range(REPEATS):
+            rows.append(one_run(Path(tmp), record=False, max_time=max_time))
+            rows.append(one_run(Path(tmp), record=True, max_time=max_time))
     csv_path = out / "recording.csv"
     with open(csv_path, "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))

@@ -18,28 +18,26 @@ from pathlib import Path
 import numpy as np
 
 from assembly.dataset_recorder import record
-from assembly.language.build import build
 from assembly.language.reader import load_tree
-from assembly.run.loop import Runner
-from assembly.run.perception_stage import clear_blackboard
-from drivers.cell_builders import load_cell
+from assembly.run.options import RunOptions
+from assembly.run.session import Run
 from perception.learning.dataset import Dataset
 
 TREES = Path(__file__).resolve().parents[2] / "trees"
 
 
 def run_tree_text(text: str, scene_args: dict, seed: int = 0) -> tuple[str, dict]:
-    """Run a tree given as YAML text on the simulated cell; (status, scene metrics)."""
+    """Run a tree given as YAML text on the simulated cell with these scene args; (status, scene
+    metrics)."""
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "tree.yaml"
         path.write_text(text)
         doc = load_tree(path)
-    clear_blackboard()
-    cell = load_cell("sim", doc.tick_hz, doc.scene, scene_args, seed=seed)
-    runner = Runner(build(doc), cell, max_time=600.0)
-    runner.setup()
-    result = runner.run()
-    return result.status, cell.world.metrics()
+    options = RunOptions(seed=seed, scene_args=scene_args, max_time=600.0, runs_dir=None, record=False,
+                         plots=False, quiet=True, supervised=False)
+    with Run(doc, options) as run:
+        result = run.loop()
+    return result.status, run.cell.world.metrics()
 
 
 def followme(rows: list) -> None:

@@ -8,6 +8,7 @@ import json
 import logging
 import sys
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 from assembly.cli.design import add_design_link_commands, add_link_options
@@ -91,21 +92,30 @@ def cmd_run(args) -> int:
     from assembly.observe.replay import live_view
     from assembly.run.session import run_tree
 
-    rules = _substitution_rules(args.substitute, args.substitute_file)
+    options = run_options(args)  # bad arguments are refused before a viewer starts
     with live_view(args.view, say=lambda line: print(line, file=sys.stderr)) as viewer:
-        summary = run_tree(
-            args.tree, substitutions=rules, cell=args.cell, seed=args.seed, realtime=args.speed == "realtime",
-            perception=args.perception, runs_dir=Path(args.runs_dir), resume=args.resume,
-            estop_at=args.estop_at, max_time=args.max_time, plots=not args.no_plots, marks=dict(args.mark),
-            scene=args.scene, record=not args.no_record, live=viewer.grpc if viewer else None,
-            record_images=args.record_images,
-            bridge_url=args.bridge, cell_name=args.cell_name, coordinated=args.coordinated,
-        )
-    if summary.get("nothing_to_do"):
+        summary = run_tree(args.tree, replace(options, live=viewer.grpc) if viewer else options)
+    if summary.nothing_to_do:
         return 0
-    if args.debug and summary.get("traceback"):
-        print(summary["traceback"], file=sys.stderr, end="")
-    return RUN_EXIT.get(summary["status"], EXIT_FAILURE)
+    if args.debug and summary.traceback:
+        print(summary.traceback, file=sys.stderr, end="")
+    return RUN_EXIT.get(summary.status, EXIT_FAILURE)
+
+
+def run_options(args: argparse.Namespace):
+    """The `RunOptions` of `fvtree run`'s arguments."""
+    from assembly.run.options import LinkOptions, RunOptions
+
+    if (args.coordinated or args.cell_name) and not args.bridge:
+        raise FvtreeError("--coordinated and --cell-name name this cell on a broker", args.tree,
+                          hint="add --bridge mqtt://HOST:PORT")
+    link = LinkOptions(args.bridge, args.cell_name, args.coordinated) if args.bridge else None
+    return RunOptions(
+        cell=args.cell, seed=args.seed, perception=args.perception, scene=args.scene,
+        realtime=args.speed == "realtime", max_time=args.max_time, estop_at=args.estop_at,
+        runs_dir=Path(args.runs_dir), resume=args.resume, marks=dict(args.mark), record=not args.no_record,
+        record_images=args.record_images, plots=not args.no_plots, link=link,
+        substitutions=tuple(_substitution_rules(args.substitute, args.substitute_file)))
 
 
 def _mark(text: str) -> tuple[str, str]:

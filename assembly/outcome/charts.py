@@ -11,7 +11,7 @@ from assembly.outcome.summary import CURVE
 from drivers.protocols import World
 
 
-def plot_profiles(profiles: dict[str, dict], summary: dict, world: World | None, path: Path) -> Path | None:
+def plot_profiles(profiles: dict[str, dict], world: World | None, path: Path) -> Path | None:
     """One panel per element: measured load along the plate, smoothing, chosen point and, from
     the world's truth, the true load curve and its maximum."""
     if not profiles:

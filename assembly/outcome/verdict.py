@@ -5,12 +5,23 @@ means the task was done. Each scene declares the tolerances it judges by; a tree
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from assembly.errors import TreeError
 from assembly.language.reader import TreeDocument
 from drivers.protocols import World
 from fileio.errors import did_you_mean
 
 TASK_FAILED = "TASK_FAILED"  # the tree said SUCCESS, the scene's truth says otherwise
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """What the scene's truth says of a simulated run: the tolerances it judged by and each way the
+    task was not done (none: it was)."""
+
+    tolerances: dict[str, float]
+    shortfalls: list[str]
 
 
 def tolerances_for(doc: TreeDocument, world: World) -> dict[str, float]:
@@ -26,12 +37,6 @@ def tolerances_for(doc: TreeDocument, world: World) -> dict[str, float]:
     return {**known, **{name: float(value) for name, value in doc.tolerances.items()}}
 
 
-def judge(summary: dict, world: World, tolerances: dict[str, float]) -> None:
-    """Add the truth's verdict to a run summary: the tolerances, each shortfall, and for a tree
-    that succeeded with shortfalls the TASK_FAILED status (the tree's own status kept beside it)."""
-    shortfalls = world.shortfalls(tolerances)
-    summary["truth"] = {"tolerances": tolerances, "shortfalls": shortfalls}
-    if shortfalls and summary["status"] == "SUCCESS":
-        summary["tree_status"] = summary["status"]
-        summary["status"] = TASK_FAILED
-        summary["message"] = "the tree succeeded but the scene's truth shows the task was not done"
+def judge(world: World, tolerances: dict[str, float]) -> Verdict:
+    """The verdict of the world's truth on the task, within `tolerances`."""
+    return Verdict(tolerances, world.shortfalls(tolerances))

@@ -16,7 +16,7 @@ from fileio.json_files import atomic_write_json
 
 RUN_FILE = "run.json"
 ASBUILT_FILE = "asbuilt.json"
-SUMMARY_FILE = "summary.json"
+EVENTS_FILE = "events.jsonl"
 
 
 def safe_name(tree_name: str) -> str:

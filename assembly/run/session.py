@@ -1,158 +1,310 @@
-"""One `fvtree run`: load and validate the tree, set up the run directory and the design bridge
-(resuming a previous run if asked), build the cell, tick to the end under the cell supervisor,
-report. The cell is closed whatever happens once it is built, and SIGTERM halts the run like
-Ctrl-C."""
+"""One run of a tree on a cell, held as an object: `Run(tree, RunOptions(...))` loads and
+validates the tree, sets up the run directory and the design bridge (resuming a previous run if
+asked), builds the cell, the py_trees tree, the recorder and the tick loop; `tick()` ticks it
+once, `run()` to the end, which judges it and returns its `Summary`. The command line, the
+benchmarks, the dataset recorder and the test harness all run trees this way.
+
+The cell is closed whatever happens once it is built (`close()`, or leaving a `with Run(...)`
+block), and SIGTERM halts `run_tree` like Ctrl-C from its start."""
 
 from __future__ import annotations
 
 import gc
 import json
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from types import TracebackType
+from typing import TYPE_CHECKING
 
 import numpy as np
+from py_trees.common import Status
 
 from assembly.design.bridge import DesignBridge
 from assembly.design.model import DesignModel
 from assembly.errors import TreeError
-from assembly.language.build import build
+from assembly.language.build import BuiltTree, build
 from assembly.language.reader import TreeDocument, load_tree, with_scene
-from assembly.language.substitution import Rule, substitute
-from assembly.observe import IMAGE_HZ
-from assembly.observe.recorder import run_recorder
+from assembly.language.substitution import substitute
+from assembly.observe.recorder import RunRecorder, run_recorder
 from assembly.outcome.charts import plot_profiles
-from assembly.outcome.summary import format_summary, summarize, write_summary
+from assembly.outcome.result import RunResult
+from assembly.outcome.summary import SUMMARY_FILE, Summary, format_summary, summarize
 from assembly.outcome.verdict import judge, tolerances_for
 from assembly.run.loop import Runner
+from assembly.run.options import MARKS, RunOptions
 from assembly.run.perception_stage import clear_blackboard
 from assembly.run.progress import end_stderr_progress, stderr_progress
-from assembly.run.run_dir import ASBUILT_FILE, SUMMARY_FILE, find_run, new_run_dir, write_run_file
+from assembly.run.run_dir import ASBUILT_FILE, EVENTS_FILE, find_run, new_run_dir, write_run_file
 from assembly.run.supervisor import Supervision
 from assembly.signals import sigterm_raises_terminated
+from drivers.cell import Cell
 from drivers.cell_builders import load_cell
 
-MARKS = ("placed", "planned")  # what a person may mark an element left `placing`
+if TYPE_CHECKING:
+    from typing_extensions import Self  # typing.Self from Python 3.11
+
+Sense = Callable[[Cell], dict]  # this tick's perception of a cell (default: `cell.sense()`)
+
+
+class Run:
+    """One run of `tree` (a tree file, or a validated document) with `options`.
+
+    `cell` runs it on a cell built by the caller (a test harness's mocked cell) instead of the one
+    `options.cell` names; `sense` replaces each tick's perception (scripted states, or the cell's
+    own recorded beside something else). Open it (`open()`, or `with Run(...) as run:`) before
+    ticking it."""
+
+    def __init__(self, tree: str | Path | TreeDocument, options: RunOptions | None = None, *,
+                 cell: Cell | None = None, sense: Sense | None = None):
+        self.options = options or RunOptions()
+        self.source = tree
+        self.given_cell = cell
+        self.sense = sense
+        self.doc: TreeDocument | None = None
+        self.substituted: list[dict] = []
+        self.run_dir: Path | None = None
+        self.bridge: DesignBridge | None = None
+        self.cell: Cell | None = None
+        self.tree: BuiltTree | None = None
+        self.recorder: RunRecorder | None = None
+        self.runner: Runner | None = None
+        self.tolerances: dict[str, float] = {}
+        self.nothing_to_do: Summary | None = None  # a resumed run with every element placed
+        self._before: dict = {}  # the summary an earlier session of a resumed run wrote
+        self._placed_before: list[str] = []
+        self._cell_closed = False
+        self._finished = False
+
+    # ---- opening ---------------------------------------------------------------------------
+    def __enter__(self) -> Self:
+        self.open()
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, error: BaseException | None,
+                 trace: TracebackType | None) -> None:
+        self.close()
+
+    def open(self) -> Run:
+        """Load the tree, prepare the run directory and design bridge, build the cell, the tree,
+        the recorder and the tick loop, and set every node up. A cell built here is closed again
+        if a later step fails."""
+        self.doc = self._document()
+        self._check_options()
+        clear_blackboard()
+        if not self._prepare_run_dir():
+            return self
+        design = self.design
+        self._placed_before = [e for e in design.build_order() if design.is_placed(e)] if design else []
+        self.cell = self.given_cell or self._load_cell()
+        try:
+            self._build()
+        except BaseException:
+            self.close()
+            raise
+        return self
+
+    def _document(self) -> TreeDocument:
+        doc = self.source if isinstance(self.source, TreeDocument) else load_tree(self.source)
+        if self.options.scene is not None:
+            doc = with_scene(doc, self.options.scene)
+        doc, self.substituted = substitute(doc, list(self.options.substitutions))
+        return doc
+
+    def _check_options(self) -> None:
+        """Options that only make sense together, checked before anything is created."""
+        o = self.options
+        if o.marks and not o.resume:
+            raise TreeError("--mark records a check of a stopped run: use it with --resume", self.doc.path)
+        if (o.resume or o.link) and o.runs_dir is None:
+            raise TreeError("resuming and the design link need a run directory", self.doc.path)
+        for eid, status in o.marks.items():
+            if status not in MARKS:
+                raise TreeError(f"--mark {eid}={status}: mark an element {' or '.join(MARKS)}", self.doc.path)
+
+    def _prepare_run_dir(self) -> bool:
+        """The run directory and the design bridge (a new run, or the run to resume, caught up);
+        False when a resumed run has nothing left to do."""
+        o, doc = self.options, self.doc
+        if o.runs_dir is None:
+            return True
+        if o.resume:
+            self.run_dir = find_run(o.runs_dir, o.resume, doc)
+            self._before = _previous_summary(self.run_dir)
+            self.bridge = _resumed_bridge(self.run_dir, doc, dict(o.marks))
+            if self.bridge is None:
+                self.nothing_to_do = Summary.from_json({**self._before, "run_dir": str(self.run_dir),
+                                                        "nothing_to_do": True})
+                return False
+        else:
+            self.run_dir = new_run_dir(o.runs_dir, doc.name)
+            write_run_file(self.run_dir, doc, cell=o.cell, seed=o.seed)
+            if doc.design is not None:
+                self.bridge = DesignBridge(doc.design, self.run_dir / ASBUILT_FILE, self.run_dir / EVENTS_FILE)
+        if self.bridge is not None and o.link is not None:
+            from assembly.design.link.mqtt_bridge import attach  # compas_eve and paho: only when linked
+
+            attach(self.bridge, o.link.url, o.link.cell_name or doc.name, o.link.coordinated)
+        return True
+
+    @property
+    def design(self) -> DesignModel | None:
+        """The design model the run builds: the bridge's (as-built so far), else the tree's."""
+        return self.bridge.model if self.bridge is not None else self.doc.design
+
+    def _load_cell(self) -> Cell:
+        o, doc = self.options, self.doc
+        # The simulated world is built from the original design: what is already placed stands.
+        scene_args = {**(doc.design.scene_args() if doc.design is not None else {}), **o.scene_args}
+        return load_cell(o.cell, doc.tick_hz, doc.scene, scene_args, seed=o.seed, perception=o.perception)
+
+    def _build(self) -> None:
+        o, cell = self.options, self.cell
+        supervision = Supervision.of_cell(o.cell) if o.supervised else None
+        if cell.world is not None:
+            self.tolerances = tolerances_for(self.doc, cell.world)
+            for eid in self._placed_before:  # on resume in simulation, stand what is placed already
+                cell.world.stand(eid, np.array(self.design.graph.nodes[eid]["asbuilt_pose"], float))
+        self.tree = build(self.doc)
+        if (o.record and self.run_dir is not None) or o.live:
+            self.recorder = run_recorder(self.tree, cell, self.run_dir, self.design, o.record and self.run_dir
+                                         is not None, o.live, o.record_images)
+        sense = (lambda: self.sense(cell)) if self.sense is not None else None
+        self.runner = Runner(self.tree, cell, self.run_dir, self.bridge, realtime=o.realtime,
+                             progress=None if o.quiet else stderr_progress, sense=sense, estop_at=o.estop_at,
+                             max_time=o.max_time, supervision=supervision, recorder=self.recorder)
+        if self.bridge is not None:
+            self.bridge.event("start", tree=str(self.doc.path), cell=o.cell, seed=o.seed, resume=bool(o.resume))
+        self.runner.setup()
+
+    # ---- running ---------------------------------------------------------------------------
+    @property
+    def ticks(self) -> int:
+        """Ticks done so far."""
+        return self.runner.ticks if self.runner is not None else 0
+
+    def tick(self) -> Status:
+        """One tick of the tree and one period of the cell; the root's status."""
+        return self._opened().tick()
+
+    def halt(self) -> None:
+        """What Ctrl-C does: stop every running node, the arm and the gripper."""
+        self._opened().halt()
+
+    def loop(self) -> RunResult:
+        """Tick until the tree ends or the run is stopped (the runner's fail-safe loop), with the
+        heap frozen out of the garbage collector's view."""
+        runner = self._opened()
+        with _frozen_heap():
+            return runner.run()
+
+    def finish(self, result: RunResult) -> Summary:
+        """Close the cell, then summarize the run, judge it by the scene's truth, write the chart
+        and `summary.json`, log its end and, unless quiet, print the summary."""
+        self.close_cell()
+        self._finished = True
+        o, cell = self.options, self.cell
+        if not o.quiet:
+            end_stderr_progress()
+        kept = self._before.get("elements", {})
+        summary = summarize(result, cell, self.design, {e: kept[e] for e in self._placed_before if e in kept})
+        summary.run_dir = None if self.run_dir is None else str(self.run_dir)
+        summary.substitutions = self.substituted
+        if cell.world is not None:
+            summary.apply(judge(cell.world, self.tolerances))
+        if self.run_dir is not None:
+            self._write(summary, result)
+        self._log_end(summary, result)
+        if not o.quiet:
+            self._print(summary)
+        return summary
+
+    def run(self) -> Summary:
+        """Run to the end and summarize (a resumed run with nothing left: the earlier summary)."""
+        if self.nothing_to_do is not None:
+            if not self.options.quiet:
+                print(_nothing_to_do_line(self.nothing_to_do))
+            return self.nothing_to_do
+        return self.finish(self.loop())
+
+    def _opened(self) -> Runner:
+        if self.runner is None:
+            raise RuntimeError("open the Run before ticking it" if self.nothing_to_do is None
+                               else "a resumed run with every element placed has nothing to tick")
+        return self.runner
+
+    # ---- after the last tick -----------------------------------------------------------------
+    def _write(self, summary: Summary, result: RunResult) -> None:
+        """Chart and summary file; a run directory that cannot be written loses them, not the run."""
+        try:
+            if self.options.plots:
+                png = plot_profiles(result.profiles, self.cell.world, self.run_dir / "load_profiles.png")
+                summary.plot = str(png) if png else None
+            summary.write(self.run_dir)
+        except OSError as exc:
+            print(f"cannot write the summary to {self.run_dir} ({exc.strerror or exc})", file=sys.stderr)
+
+    def _log_end(self, summary: Summary, result: RunResult) -> None:
+        end = {"status": summary.status, "where": result.where, "message": summary.message}
+        if self.bridge is not None:
+            self.bridge.event("end", **end)
+            self.bridge.close()
+        elif self.recorder is not None:  # no event log for the recorder to read the end from: tell it
+            self.recorder.event("end", **end)
+        if self.recorder is not None:
+            self.recorder.finish()
+
+    def _print(self, summary: Summary) -> None:
+        print(format_summary(summary))
+        for made in summary.substitutions:
+            print(f"  substituted: {made['path']} ({made['was']}) by {made['double']}")
+        if summary.run_dir:
+            print(f"  run directory: {summary.run_dir}" + (f" (chart: {summary.plot})" if summary.plot else ""))
+
+    # ---- closing ---------------------------------------------------------------------------
+    def close_cell(self) -> None:
+        """Stop and close the cell (its devices, simulator workers, cameras), once."""
+        if self.cell is not None and not self._cell_closed:
+            self._cell_closed = True
+            self.cell.close()
+
+    def close(self) -> None:
+        """Close the cell and, for a run left unfinished, the design bridge's links and the recorder."""
+        self.close_cell()
+        if not self._finished:
+            self._finished = True
+            if self.bridge is not None:
+                self.bridge.close()
+            if self.recorder is not None:
+                self.recorder.finish()
 
 
 @sigterm_raises_terminated()  # from the start: SIGTERM while the cell is set up closes it like Ctrl-C
-def run_tree(tree_path: str, cell: str = "sim", seed: int = 0, realtime: bool = False,
-             perception: str | None = None, runs_dir: Path = Path("runs"), resume: str | None = None,
-             estop_at: float | None = None, max_time: float = 3600.0, plots: bool = True,
-             quiet: bool = False, marks: dict[str, str] | None = None, scene: str | None = None,
-             record: bool = True, live: str | None = None, bridge_url: str | None = None,
-             cell_name: str | None = None, coordinated: bool = False,
-             substitutions: list[Rule] | None = None, record_images: float = IMAGE_HZ) -> dict:
-    """Run a tree file end to end; returns the summary (also written to the run directory).
-
-    `marks` ({element: placed|planned}, resuming only) records a person's check of elements a
-    stopped run left being placed; `scene` replaces the tree's simulated scene. `record` writes
-    the run's Rerun recording into the run directory; `live` streams it to a viewer at that URL;
-    `record_images` is the rate of camera frames in it (per second of cell time, 0: none).
-    `bridge_url` (mqtt://HOST:PORT) links the design bridge live to designers under `cell_name`
-    (default: the tree's name); `coordinated` takes the elements from a design coordinator.
-    `substitutions` replace nodes by path or glob with test doubles (`assembly.language.substitution`)."""
-    doc = load_tree(tree_path)
-    if scene is not None:
-        doc = with_scene(doc, scene)
-    doc, substituted = substitute(doc, substitutions or [])
-    supervision = Supervision.of_cell(cell)
-    if (coordinated or cell_name) and not bridge_url:
-        raise TreeError("--coordinated and --cell-name name this cell on a broker", str(tree_path),
-                        hint="add --bridge mqtt://HOST:PORT")
-    clear_blackboard()
-    before: dict = {}
-    if resume:
-        run_dir = find_run(runs_dir, resume, doc)
-        before = _previous_summary(run_dir)
-        bridge = _resumed_bridge(run_dir, doc, marks or {})
-        if bridge is None:
-            return _nothing_to_do(run_dir, before, quiet)
-    else:
-        if marks:
-            raise TreeError("--mark records a check of a stopped run: use it with --resume", str(tree_path))
-        run_dir = new_run_dir(runs_dir, doc.name)
-        write_run_file(run_dir, doc, cell=cell, seed=seed)
-        bridge = (DesignBridge(doc.design, run_dir / ASBUILT_FILE, run_dir / "events.jsonl")
-                  if doc.design is not None else None)
-    if bridge is not None and bridge_url:
-        from assembly.design.link.mqtt_bridge import attach
-
-        attach(bridge, bridge_url, cell_name or doc.name, coordinated)
-    design = bridge.model if bridge else None
-    placed_before = [e for e in design.build_order() if design.is_placed(e)] if design else []
-    # The simulated world is built from the original design: what is already placed stands.
-    scene_args = doc.design.scene_args() if doc.design is not None else {}
-    the_cell = load_cell(cell, doc.tick_hz, doc.scene, scene_args, seed=seed, perception=perception)
-    try:
-        tolerances = tolerances_for(doc, the_cell.world) if the_cell.world is not None else {}
-        if placed_before and the_cell.world is not None:
-            _stand_placed(the_cell.world, design, placed_before)
-        built = build(doc)
-        recorder = (run_recorder(built, the_cell, run_dir, design, record, live, record_images)
-                    if record or live else None)
-        runner = Runner(built, the_cell, run_dir, bridge, realtime=realtime,
-                        progress=None if quiet else stderr_progress, estop_at=estop_at, max_time=max_time,
-                        supervision=supervision, recorder=recorder)
-        if bridge:
-            bridge.event("start", tree=str(tree_path), cell=cell, seed=seed, resume=bool(resume))
-        runner.setup()
-        with _frozen_heap():
-            result = runner.run()
-    finally:
-        the_cell.close()
-    if not quiet:
-        end_stderr_progress()
-    summary = summarize(result, the_cell, design, {e: before["elements"][e] for e in placed_before
-                                                   if e in before.get("elements", {})})
-    summary["run_dir"] = str(run_dir)
-    if substituted:
-        summary["substitutions"] = substituted
-    if the_cell.world is not None:
-        judge(summary, the_cell.world, tolerances)
-    _finish(summary, result, the_cell, run_dir, plots)
-    if bridge:
-        bridge.event("end", status=summary["status"], where=result.where, message=summary["message"])
-        bridge.close()
-    elif recorder is not None:  # no event log for the recorder to read the end from: tell it
-        recorder.event("end", status=summary["status"], where=result.where, message=summary["message"])
-    if recorder is not None:
-        recorder.finish()
-    if not quiet:
-        print(format_summary(summary))
-        for made in substituted:
-            print(f"  substituted: {made['path']} ({made['was']}) by {made['double']}")
-        print(f"  run directory: {run_dir}" + (f" (chart: {summary.get('plot')})" if summary.get("plot") else ""))
-    return summary
-
-
-def _finish(summary: dict, result, cell, run_dir: Path, plots: bool) -> None:
-    """Chart and summary file; a run directory that cannot be written loses them, not the run."""
-    if result.traceback:
-        summary["traceback"] = result.traceback
-    try:
-        if plots:
-            png = plot_profiles(result.profiles, summary, cell.world, run_dir / "load_profiles.png")
-            summary["plot"] = str(png) if png else None
-        write_summary(summary, run_dir)
-    except OSError as exc:
-        print(f"cannot write the summary to {run_dir} ({exc.strerror or exc})", file=sys.stderr)
+def run_tree(tree: str | Path, options: RunOptions | None = None) -> Summary:
+    """Run a tree file end to end as `fvtree run` does; its summary (also in the run directory)."""
+    with Run(tree, options) as run:
+        return run.run()
 
 
 def _previous_summary(run_dir: Path) -> dict:
     """The summary an earlier session of this run wrote, if any."""
     try:
-        return json.loads((run_dir / SUMMARY_FILE).read_text())
+        data = json.loads((run_dir / SUMMARY_FILE).read_text())
     except (OSError, ValueError):
         return {}
+    return data if isinstance(data, dict) else {}
+
+
+def _nothing_to_do_line(summary: Summary) -> str:
+    return (f"nothing to do: every element of {summary.run_dir} is placed"
+            + (f" (the run ended {summary.status})" if summary.status else ""))
 
 
 def _resumed_bridge(run_dir: Path, doc: TreeDocument, marks: dict[str, str]) -> DesignBridge | None:
     """The design bridge of a run to resume, caught up with its event log and a person's marks;
     None when nothing is left to build. An element left `placing` stops the resume."""
-    bridge = DesignBridge(DesignModel.load(run_dir / ASBUILT_FILE), run_dir / ASBUILT_FILE,
-                          run_dir / "events.jsonl")
+    bridge = DesignBridge(DesignModel.load(run_dir / ASBUILT_FILE), run_dir / ASBUILT_FILE, run_dir / EVENTS_FILE)
     bridge.catch_up()
     design = bridge.model
     for eid, status in marks.items():
@@ -177,15 +329,6 @@ def _resumed_bridge(run_dir: Path, doc: TreeDocument, marks: dict[str, str]) -> 
     return bridge
 
 
-def _nothing_to_do(run_dir: Path, before: dict, quiet: bool) -> dict:
-    """The summary of a run that has already placed every element."""
-    summary = {**before, "run_dir": str(run_dir), "nothing_to_do": True}
-    if not quiet:
-        print(f"nothing to do: every element of {run_dir} is placed"
-              + (f" (the run ended {before['status']})" if before.get("status") else ""))
-    return summary
-
-
 @contextmanager
 def _frozen_heap() -> Iterator[None]:
     """Collect once, then keep every object alive so far out of the garbage collector's view
@@ -196,9 +339,3 @@ def _frozen_heap() -> Iterator[None]:
         yield
     finally:
         gc.unfreeze()
-
-
-def _stand_placed(world, design: DesignModel, placed: list[str]) -> None:
-    """On resume in simulation, put already-placed elements where the as-built model says."""
-    for eid in placed:
-        world.stand(eid, np.array(design.graph.nodes[eid]["asbuilt_pose"], float))

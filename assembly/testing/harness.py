@@ -21,7 +21,7 @@ tree on the full simulated cell instead, optionally with scripted perception on 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -30,12 +30,11 @@ from py_trees.blackboard import Blackboard
 from py_trees.common import Status
 
 from assembly.design.model import DesignModel
-from assembly.language.build import BuiltTree, build
-from assembly.language.reader import load_tree
+from assembly.language.build import BuiltTree
+from assembly.language.reader import TreeDocument, load_tree
 from assembly.language.substitution import Rule, rules_from
-from assembly.language.substitution import substitute as apply_substitutions
-from assembly.run.loop import Runner
-from assembly.run.perception_stage import clear_blackboard
+from assembly.run.options import RunOptions
+from assembly.run.session import Run
 from drivers.cell import Cell
 from drivers.clock import SimClock
 from drivers.safe_gripper import SafeGripper
@@ -155,41 +154,40 @@ def table(rows: Iterable[tuple[int, dict]]) -> Script:
     return script
 
 
-@dataclass
 class TreeHarness:
-    """A tree ticked by hand on a mocked (or simulated) cell with scripted perception."""
+    """A tree ticked by hand on a mocked (or simulated) cell with scripted perception: a `Run`
+    without run directory, recording or supervisor, whose perception comes from the script."""
 
-    tree: BuiltTree
-    cell: Cell
-    design: DesignModel | None = None
-    _script: Script | None = field(default=None, repr=False)
-    substitutions: list[dict] = field(default_factory=list)  # what `substitute` replaced (path, was, double)
-    _runner: Runner = field(init=False, repr=False)
+    def __init__(self, doc: TreeDocument, cell: Cell | None = None, design: DesignModel | None = None,
+                 substitute: Substitutions = None):
+        if design is not None:
+            doc = replace(doc, design=design)
+        rules = tuple(rules_from(substitute or {}, "TreeHarness"))
+        options = RunOptions(runs_dir=None, record=False, plots=False, quiet=True, supervised=False,
+                             substitutions=rules)
+        self._script: Script | None = None
+        self._run = Run(doc, options, cell=cell or mock_cell(doc.tick_hz), sense=self._sense).open()
+        self.tree: BuiltTree = self._run.tree
+        self.cell: Cell = self._run.cell
+        self.design: DesignModel | None = doc.design
+        self.substitutions: list[dict] = self._run.substituted  # what was replaced: path, was, double
 
     @classmethod
     def from_text(cls, text: str, cell: Cell | None = None, design: DesignModel | None = None,
                   name: str = "<test tree>", substitute: Substitutions = None) -> TreeHarness:
-        return cls.load(load_tree(text=text, name=name, dataflow=False), cell, design, substitute)
+        return cls(load_tree(text=text, name=name, dataflow=False), cell, design, substitute)
 
     @classmethod
     def from_file(cls, path: str | Path, cell: Cell | None = None,
                   design: DesignModel | None = None, substitute: Substitutions = None) -> TreeHarness:
-        return cls.load(load_tree(path, dataflow=False), cell, design, substitute)
+        return cls(load_tree(path, dataflow=False), cell, design, substitute)
 
     @classmethod
-    def load(cls, doc, cell: Cell | None, design: DesignModel | None,
+    def load(cls, doc: TreeDocument, cell: Cell | None, design: DesignModel | None,
              substitute: Substitutions = None) -> TreeHarness:
         """`substitute` replaces nodes by path or glob with test doubles: `{PATTERN: SPEC}` or
         `Rule`s (`assembly.language.substitution`); `harness.substitutions` lists what was replaced."""
-        clear_blackboard()
-        doc, made = apply_substitutions(doc, rules_from(substitute or {}, "TreeHarness"))
-        return cls(build(doc), cell or mock_cell(doc.tick_hz), design or doc.design, substitutions=made)
-
-    def __post_init__(self):
-        if self.design is not None:
-            self.tree.document.design = self.design
-        self._runner = Runner(self.tree, self.cell, sense=self._sense)
-        self._runner.setup()
+        return cls(doc, cell, design, substitute)
 
     # ---- perception ------------------------------------------------------------------------
     def script(self, script: Script | list) -> TreeHarness:
@@ -198,16 +196,16 @@ class TreeHarness:
         self._script = table(script) if isinstance(script, list) else script
         return self
 
-    def _sense(self) -> dict:
-        states = dict(self.cell.sense())
+    def _sense(self, cell: Cell) -> dict:
+        states = dict(cell.sense())
         if self._script is not None:
-            states.update(self._script(self._runner.ticks, self.cell.clock.now()))
+            states.update(self._script(self._run.ticks, cell.clock.now()))
         return states
 
     # ---- ticking ---------------------------------------------------------------------------
     def tick(self, n: int = 1) -> Status:
         for _ in range(n):
-            status = self._runner.tick()
+            status = self._run.tick()
         return status
 
     def run_until_done(self, max_ticks: int = 10_000) -> Status:
@@ -220,11 +218,11 @@ class TreeHarness:
 
     def halt(self) -> None:
         """What Ctrl-C does: stop every running node, the arm and the gripper."""
-        self._runner.halt()
+        self._run.halt()
 
     @property
     def ticks(self) -> int:
-        return self._runner.ticks
+        return self._run.ticks
 
     # ---- inspection ------------------------------------------------------------------------
     @property

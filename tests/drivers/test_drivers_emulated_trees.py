@@ -10,6 +10,7 @@ import pytest
 import yaml
 from drivers_testkit import Emulator, emulating, next_host, tolerant_of_load
 
+from assembly.run.options import RunOptions
 from assembly.run.session import run_tree
 from drivers.cell_file import CELLS_DIR
 
@@ -41,14 +42,14 @@ def emulated_cell(tmp_path):
 
 def test_assembly_on_the_emulated_cell_matches_the_simulated_cell(emulated_cell, tmp_path):
     path, ur, robotiq = emulated_cell
-    emulated = run_tree(TREE, cell=str(path), runs_dir=tmp_path / "emulated", plots=False, quiet=True)
-    simulated = run_tree(TREE, cell="sim", runs_dir=tmp_path / "sim", plots=False, quiet=True)
+    emulated = run_tree(TREE, RunOptions(cell=str(path), runs_dir=tmp_path / "emulated", plots=False, quiet=True))
+    simulated = run_tree(TREE, RunOptions(cell="sim", runs_dir=tmp_path / "sim", plots=False, quiet=True))
 
-    assert emulated["status"] == simulated["status"] == "SUCCESS", emulated["message"]
-    assert emulated["arm_fault"] is None and emulated["safety_clamps"] == 0
-    assert emulated["elements"].keys() == simulated["elements"].keys() == {"E1", "E2"}
-    for eid, got in emulated["elements"].items():
-        want = simulated["elements"][eid]
+    assert emulated.status == simulated.status == "SUCCESS", emulated.message
+    assert emulated.arm_fault is None and emulated.safety_clamps == 0
+    assert emulated.elements.keys() == simulated.elements.keys() == {"E1", "E2"}
+    for eid, got in emulated.elements.items():
+        want = simulated.elements[eid]
         assert got["status"] == want["status"] == "placed"
         assert got["plate"] == want["plate"]
         # The point of maximum load, within the search's own scatter of the true one (2 % load noise
@@ -62,7 +63,7 @@ def test_assembly_on_the_emulated_cell_matches_the_simulated_cell(emulated_cell,
         assert abs(got["position"] - want["position"]) < 2 * POSITION_TOLERANCE, placed
         assert np.allclose(got["asbuilt_pose"], want["asbuilt_pose"], atol=2 * POSITION_TOLERANCE + 0.002), eid
     # cell time is comparable: the emulated controller ramps its speed, the kinematic arm does not
-    assert 0.9 < emulated["sim_time_s"] / simulated["sim_time_s"] < 1.2
+    assert 0.9 < emulated.sim_time_s / simulated.sim_time_s < 1.2
 
     # The emulators did the moving: the controller ends at the tree's home pose with no safety
     # stop, and the gripper emulator holds nothing.
@@ -75,6 +76,6 @@ def test_assembly_on_the_emulated_cell_matches_the_simulated_cell(emulated_cell,
 @pytest.mark.parametrize("demo", DEMOS)
 def test_skill_demo_succeeds_on_the_emulated_cell(emulated_cell, tmp_path, demo):
     path, ur, _ = emulated_cell
-    summary = run_tree(f"trees/{demo}.yaml", cell=str(path), runs_dir=tmp_path, plots=False, quiet=True)
-    assert summary["status"] == "SUCCESS", summary["message"]
-    assert summary["arm_fault"] is None and not ur.state()["protective_stopped"]
+    summary = run_tree(f"trees/{demo}.yaml", RunOptions(cell=str(path), runs_dir=tmp_path, plots=False, quiet=True))
+    assert summary.status == "SUCCESS", summary.message
+    assert summary.arm_fault is None and not ur.state()["protective_stopped"]

@@ -12,11 +12,9 @@ import numpy as np
 import yaml
 
 from assembly.design.model import DesignModel
-from assembly.language.build import build
-from assembly.language.reader import load_tree
-from assembly.run.loop import Runner
-from assembly.run.perception_stage import clear_blackboard
-from drivers.cell_builders import load_cell
+from assembly.run.options import RunOptions
+from assembly.run.session import Run
+from drivers.cell import Cell
 from drivers.cell_file import resolve_cell_path
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
 from perception.state import FINGERS, TactileState
@@ -74,19 +72,14 @@ def _order(model_origin: np.ndarray, pipeline_origin: np.ndarray) -> np.ndarray:
 
 def record(tree: Path, seed: int = 0, max_time: float = 120.0) -> PixelRun:
     """Run `tree` in pixel mode on the simulated cell and record every tick beside its truth."""
-    doc = load_tree(tree)
-    clear_blackboard()
-    scene_args = doc.design.scene_args() if doc.design is not None else {}
-    cell = load_cell("sim", doc.tick_hz, doc.scene, scene_args, seed=seed, perception="pixels")
     sensor_cfg = yaml.safe_load(resolve_cell_path("sim").read_text()).get("sensor") or {}
     models = {f: SensorModel(f, **{**sensor_cfg, "noise_px": 0.0, "pipeline_errors": False}) for f in FINGERS}
     ticks: dict[str, list[Tick]] = {f: [] for f in FINGERS}
     orders: dict[str, np.ndarray] = {}
-    pixel_sense, world = cell.sense, cell.world
 
-    def sense() -> dict[str, TactileState]:
-        contacts = world.contacts()  # what the frames about to be rendered show
-        states = pixel_sense()
+    def sense(cell: Cell) -> dict[str, TactileState]:
+        contacts = cell.world.contacts()  # what the frames about to be rendered show
+        states = cell.sense()
         for f in FINGERS:
             truth = models[f].state(contacts[f], 0.0).markers
             if f not in orders:
@@ -95,11 +88,8 @@ def record(tree: Path, seed: int = 0, max_time: float = 120.0) -> PixelRun:
             ticks[f].append(Tick(dataclasses.replace(contacts[f]), truth.position[idx], truth.size[idx], states[f]))
         return states
 
-    cell.sense = sense
-    runner = Runner(build(doc), cell, max_time=max_time)
-    runner.setup()
-    try:
-        result = runner.run()
-    finally:
-        cell.close()
-    return PixelRun(tree.name, result.status, ticks, 1.0 / doc.tick_hz)
+    options = RunOptions(seed=seed, perception="pixels", max_time=max_time, runs_dir=None, record=False,
+                         plots=False, quiet=True, supervised=False)
+    with Run(tree, options, sense=sense) as run:
+        result = run.loop()
+    return PixelRun(tree.name, result.status, ticks, 1.0 / run.doc.tick_hz)
