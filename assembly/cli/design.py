@@ -10,6 +10,8 @@ import sys
 import time
 from pathlib import Path
 
+from assembly.cli.args import Subparsers
+
 
 def add_link_options(run: argparse.ArgumentParser) -> None:
     """The options of `fvtree run` that link the run's design bridge to a broker."""
@@ -23,7 +25,7 @@ def add_link_options(run: argparse.ArgumentParser) -> None:
                           "sharing the design with other cells")
 
 
-def add_design_link_commands(sub) -> None:
+def add_commands(sub: Subparsers) -> None:
     """`fvtree coordinate` and `fvtree design`."""
     c = sub.add_parser("coordinate", help="hand out the elements of a design to several cells over MQTT")
     c.add_argument("design", help="design file (node-link JSON)")

@@ -13,10 +13,11 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from assembly.observe.replay import start_viewer
+from assembly.observe.replay import Viewer, start_viewer
 from drivers.clock import WallClock
 from drivers.hardware.camera import CameraConfig, OpenCvCamera
 from fileio.errors import FvtreeError
+from perception.calibration import MarkerMap
 from perception.fingervision import FingerVision
 from perception.state import TactileState
 
@@ -69,52 +70,14 @@ def sensor_view(source: str, marker_map: Path, preset: str = "fast", finger: str
     clock = WallClock(1.0 / pipeline.config.camera_fps)
     camera = OpenCvCamera("sensor", CameraConfig(parse_source(source)), clock)
     viewer = start_viewer([]) if view else None
-    stream = rr.RecordingStream("fvtree-sensor")
-    sinks = ([rr.FileSink(str(save))] if save else []) + ([rr.GrpcSink(viewer.grpc)] if viewer else [])
-    stream.set_sinks(*sinks, default_blueprint=sensor_layout())
-    stream.set_log_time_enabled(False)
-    stream.set_log_tick_enabled(False)
+    stream = _open_stream(save, viewer)
     if viewer:
         say(f"sensor view: open {viewer.page}  (Ctrl-C to stop)")
     seen = {"frames": 0, "unhealthy": 0}
     try:
-        calibration = []
-        while len(calibration) < pipeline.config.calibration.n_frames:
-            got = _grab(camera, timeout)
-            if got is None:
-                raise FvtreeError(f"only {len(calibration)} frames for the calibration (needs "
-                                  f"{pipeline.config.calibration.n_frames}): {camera.last_error or 'the source ended'}",
-                                  source)
-            calibration.append(got[0])
-        found = pipeline.calibrate(calibration)
-        found.save(marker_map)
-        say(f"calibrated {len(found)} markers on {len(calibration)} frames; marker map saved to {marker_map}")
-        stream.log("sensor/calibration", rr.TextDocument(
-            f"{len(found)} markers, image {found.image_size[0]}x{found.image_size[1]} px, "
-            f"median diameter {float(np.median(found.size)):.1f} px, calibrated on {len(calibration)} frames; "
-            f"marker map: {marker_map}"), static=True)
-        stream.log("sensor/image/origins", rr.Points2D(found.origin, radii=0.8, colors=[(255, 255, 255, 120)]),
-                   static=True)
-        for name in ("force", "torque"):
-            stream.log(f"sensor/{name}", rr.SeriesLines(names=["x", "y", "z"]), static=True)
-        healthy = None
-        while frames is None or seen["frames"] < frames:
-            got = _grab(camera, timeout)
-            if got is None:
-                break
-            frame, stamp = got
-            state = pipeline.process(frame, stamp)
-            stream.set_time("frame", sequence=seen["frames"])
-            stream.set_time("cell_time", duration=stamp)
-            if seen["frames"] % image_every == 0:
-                stream.log("sensor/image", rr.Image(frame, color_model="BGR").compress(jpeg_quality=JPEG_QUALITY))
-            _log_state(stream, state)
-            if state.healthy != healthy:
-                healthy = state.healthy
-                stream.log("sensor/health", rr.TextLog("healthy" if healthy else f"unhealthy: {state.health_reason}",
-                                                       level="INFO" if healthy else "WARN"))
-            seen["frames"] += 1
-            seen["unhealthy"] += not state.healthy
+        found = _calibrate(pipeline, camera, source, marker_map, timeout, say)
+        _log_calibration(stream, found, pipeline.config.calibration.n_frames, marker_map)
+        _show_frames(stream, pipeline, camera, frames, image_every, timeout, seen)
         seen["markers"] = len(found)
         if viewer and frames is None:
             say(f"the source ended after {seen['frames']} frames; the view stays until Ctrl-C")
@@ -122,15 +85,93 @@ def sensor_view(source: str, marker_map: Path, preset: str = "fast", finger: str
     except KeyboardInterrupt:
         pass
     finally:
-        camera.close()
-        stream.flush()
-        stream.disconnect()
-        if viewer:
-            viewer.stop()
+        _close(camera, stream, viewer)
     return seen
 
 
+def _open_stream(save: Path | None, viewer: Viewer | None) -> rr.RecordingStream:
+    """A recording stream to the file `save` and/or the viewer, laid out as the sensor view and timed
+    only by the frames' own timelines."""
+    stream = rr.RecordingStream("fvtree-sensor")
+    sinks = ([rr.FileSink(str(save))] if save else []) + ([rr.GrpcSink(viewer.grpc)] if viewer else [])
+    stream.set_sinks(*sinks, default_blueprint=sensor_layout())
+    stream.set_log_time_enabled(False)
+    stream.set_log_tick_enabled(False)
+    return stream
+
+
+def _calibrate(pipeline: FingerVision, camera: OpenCvCamera, source: str, marker_map: Path, timeout: float,
+               say) -> MarkerMap:
+    """Calibrate the pipeline on the camera's first frames and save the marker map at `marker_map`
+    (FvtreeError, naming `source`, if the camera gives too few frames)."""
+    needed = pipeline.config.calibration.n_frames
+    calibration = []
+    while len(calibration) < needed:
+        got = _grab(camera, timeout)
+        if got is None:
+            raise FvtreeError(f"only {len(calibration)} frames for the calibration (needs "
+                              f"{needed}): {camera.last_error or 'the source ended'}", source)
+        calibration.append(got[0])
+    found = pipeline.calibrate(calibration)
+    found.save(marker_map)
+    say(f"calibrated {len(found)} markers on {len(calibration)} frames; marker map saved to {marker_map}")
+    return found
+
+
+def _log_calibration(stream: rr.RecordingStream, found: MarkerMap, n_frames: int, marker_map: Path) -> None:
+    """What stays the same over the view: the calibration's summary, the markers' rest positions and
+    the names of the wrench series."""
+    stream.log("sensor/calibration", rr.TextDocument(
+        f"{len(found)} markers, image {found.image_size[0]}x{found.image_size[1]} px, "
+        f"median diameter {float(np.median(found.size)):.1f} px, calibrated on {n_frames} frames; "
+        f"marker map: {marker_map}"), static=True)
+    stream.log("sensor/image/origins", rr.Points2D(found.origin, radii=0.8, colors=[(255, 255, 255, 120)]),
+               static=True)
+    for name in ("force", "torque"):
+        stream.log(f"sensor/{name}", rr.SeriesLines(names=["x", "y", "z"]), static=True)
+
+
+def _show_frames(stream: rr.RecordingStream, pipeline: FingerVision, camera: OpenCvCamera, frames: int | None,
+                 image_every: int, timeout: float, seen: dict) -> None:
+    """Process and log the camera's frames until `frames` were shown (None: until the source ends),
+    counting them and the unhealthy ones in `seen` as they go (so Ctrl-C keeps the counts)."""
+    healthy = None
+    while frames is None or seen["frames"] < frames:
+        got = _grab(camera, timeout)
+        if got is None:
+            break
+        frame, stamp = got
+        state = pipeline.process(frame, stamp)
+        stream.set_time("frame", sequence=seen["frames"])
+        stream.set_time("cell_time", duration=stamp)
+        if seen["frames"] % image_every == 0:
+            stream.log("sensor/image", rr.Image(frame, color_model="BGR").compress(jpeg_quality=JPEG_QUALITY))
+        _log_state(stream, state)
+        if state.healthy != healthy:
+            healthy = state.healthy
+            _log_health(stream, state)
+        seen["frames"] += 1
+        seen["unhealthy"] += not state.healthy
+
+
+def _close(camera: OpenCvCamera, stream: rr.RecordingStream, viewer: Viewer | None) -> None:
+    """Release the camera, finish the recording and stop the viewer, whatever ended the view."""
+    camera.close()
+    stream.flush()
+    stream.disconnect()
+    if viewer:
+        viewer.stop()
+
+
+def _log_health(stream: rr.RecordingStream, state: TactileState) -> None:
+    """A line in the health log, logged when the sensor turns healthy or unhealthy."""
+    stream.log("sensor/health", rr.TextLog("healthy" if state.healthy else f"unhealthy: {state.health_reason}",
+                                           level="INFO" if state.healthy else "WARN"))
+
+
 def _log_state(stream: rr.RecordingStream, state: TactileState) -> None:
+    """One frame's markers (green tracked, red lost) with their displacement arrows, force, torque and
+    the share of markers tracked."""
     m = state.markers
     colours = np.where(m.valid[:, None], VALID, LOST).astype(np.uint8)
     stream.log("sensor/image/markers", rr.Points2D(m.position, radii=m.size / 2.0, colors=colours))

@@ -1,0 +1,62 @@
+"""The commands of the learned tactile models: `fvtree record` (per-tick features and labels of runs),
+`fvtree import-log` (BlobMoves logs of other FingerVision software as a recording) and `fvtree train`."""
+
+from __future__ import annotations
+
+from assembly.cli.args import POSITIVE_INT, SEED, Subparsers, add_cell_option, add_perception_option, existing_file
+from fileio.errors import FvtreeError
+
+
+def add_commands(sub: Subparsers) -> None:
+    """`fvtree record`, `import-log` and `train`."""
+    rec = sub.add_parser("record", help="run a tree and record per-tick tactile features and labels")
+    rec.add_argument("tree")
+    rec.add_argument("--out", required=True, help="recording file to write (.npz)")
+    add_cell_option(rec)
+    rec.add_argument("--seed", type=SEED, default=0, help="seed of the first run")
+    rec.add_argument("--runs", type=POSITIVE_INT, default=1,
+                     help="record this many runs (seeds seed, seed+1, ...)")
+    add_perception_option(rec)
+    rec.set_defaults(func=cmd_record)
+
+    il = sub.add_parser("import-log", help="turn BlobMoves marker logs of other FingerVision software (one trial "
+                                           "per JSON or YAML file) into a recording for fvtree train")
+    il.add_argument("logs", nargs="+", type=existing_file, metavar="LOG")
+    il.add_argument("--out", required=True, help="recording file to write (.npz)")
+    il.set_defaults(func=cmd_import_log)
+
+    tr = sub.add_parser("train", help="train ForceLearn (force) or StirLearn (stir) on a recording")
+    tr.add_argument("kind", choices=("force", "stir"))
+    tr.add_argument("data", type=existing_file, nargs="+", help="recordings made by fvtree record (joined)")
+    tr.add_argument("--out", required=True, help="model file to write (.npz)")
+    tr.add_argument("--seed", type=SEED, default=0)
+    tr.add_argument("--test", type=existing_file, default=None, metavar="RECORDING",
+                    help="stir: test on every trial of this recording of another session (fvtree record "
+                         "--seed N) instead of holding out trials of DATA")
+    tr.set_defaults(func=cmd_train)
+
+
+def cmd_record(args) -> int:
+    from assembly.dataset_recorder import record
+
+    print(f"wrote {record(args.tree, args.out, cell=args.cell, seed=args.seed, runs=args.runs, perception=args.perception)}")
+    return 0
+
+
+def cmd_import_log(args) -> int:
+    from perception.learning.blobmoves import import_logs
+
+    rec = import_logs(args.logs)
+    print(f"wrote {rec.save(args.out)} ({len(args.logs)} trials, {len(rec)} frames)")
+    return 0
+
+
+def cmd_train(args) -> int:
+    from perception.learning.train import run
+
+    if args.test and args.kind != "stir":
+        raise FvtreeError("--test (a recording of another session) is for StirLearn (`fvtree train stir`)",
+                          args.test)
+    for path in run(args.kind, args.data, args.out, seed=args.seed, test=args.test):
+        print(f"wrote {path}")
+    return 0
