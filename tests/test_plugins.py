@@ -1,7 +1,8 @@
 """Skills and scenes from other packages: the example plug-in (examples/fvtree_plugin_example) is
 installed into a directory of its own and used by fvtree in a subprocess (so this test session's
 tables stay as they are): its skill and scene are listed with their package, in the schema too,
-and its demo tree runs. A name another package has taken is a clear error."""
+its demo tree runs and its own test of the skill contract passes. A name another package has taken
+is a clear error."""
 
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ from pathlib import Path
 import pytest
 
 from assembly.language.plugins import PluginError, add_scenes, add_skills
+from assembly.testing.skill_checks import CHECKS
 from behaviours.skill_kit.base import ProgramSkill
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -32,14 +34,18 @@ def plugin_path(tmp_path_factory) -> Path:
     return target
 
 
+def env_seeing(*paths: Path) -> dict[str, str]:
+    """This process's environment, with Python importing from `paths` (fvtree's own root last)."""
+    return {**os.environ, "PYTHONPATH": os.pathsep.join([*map(str, paths), str(ROOT)])}
+
+
 def fvtree(plugin_path: Path, *commands: list[str]) -> list[tuple[int, str]]:
     """(exit code, stdout) of each fvtree command, run in one Python process that sees the plug-in."""
     script = ("import contextlib, io, json, sys\nfrom assembly.cli import main\nout = []\n"
               "for args in json.loads(sys.argv[1]):\n    buf = io.StringIO()\n"
               "    with contextlib.redirect_stdout(buf):\n        code = main(args)\n"
               "    out.append((code, buf.getvalue()))\nprint(json.dumps(out))\n")
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(plugin_path), str(ROOT)])}
-    done = subprocess.run([sys.executable, "-c", script, json.dumps(commands)], cwd=ROOT, env=env,
+    done = subprocess.run([sys.executable, "-c", script, json.dumps(commands)], cwd=ROOT, env=env_seeing(plugin_path),
                           capture_output=True, text=True, timeout=TIMEOUT, check=False)
     assert done.returncode == 0, done.stderr
     return [tuple(r) for r in json.loads(done.stdout.splitlines()[-1])]
@@ -69,10 +75,17 @@ def test_the_plugin_demo_tree_runs(plugin_path, tmp_path):
     assert any(e["node"] == "pinch_demo/pinch" and e["to"] == "SUCCESS" and "felt" in e["feedback"] for e in log)
 
 
+def test_the_plugin_keeps_the_skill_contract(plugin_path):
+    """The example's own test (tests/test_pinch_contract.py), run by pytest in the example's folder
+    as its author would, with the plug-in installed."""
+    run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider"], cwd=EXAMPLE,
+                         env=env_seeing(plugin_path), capture_output=True, text=True, timeout=TIMEOUT, check=False)
+    assert run.returncode == 0 and f"{len(CHECKS)} passed" in run.stdout, run.stdout + run.stderr
+
+
 def test_without_the_plugin_its_tree_names_what_is_missing(tmp_path):
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
     run = subprocess.run([sys.executable, "-m", "assembly.cli", "validate", str(EXAMPLE / "trees" / "pinch.yaml")],
-                         cwd=ROOT, env=env, capture_output=True, text=True, timeout=TIMEOUT, check=False)
+                         cwd=ROOT, env=env_seeing(), capture_output=True, text=True, timeout=TIMEOUT, check=False)
     assert run.returncode == 2 and "no simulated scene 'light_box'" in run.stderr and "unknown skill 'pinch'" in run.stderr
 
 

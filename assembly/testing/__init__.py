@@ -3,5 +3,7 @@ mocked (or simulated) cell with scripted perception (`harness`); `check_skill` r
 every skill must pass, on this project's skills and on a plug-in's (`skill_checks`)."""
 
 from assembly.testing.harness import Command, TreeHarness, mock_cell, table, touch
+from assembly.testing.skill_checks import check_skill, parametrize_with_skill_checks, skill_checks
 
-__all__ = ["Command", "TreeHarness", "mock_cell", "table", "touch"]
+__all__ = ["Command", "TreeHarness", "check_skill", "mock_cell", "parametrize_with_skill_checks", "skill_checks",
+           "table", "touch"]
