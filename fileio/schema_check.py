@@ -1,7 +1,8 @@
 """Values from files checked against the subset of JSON Schema the project's formats use (type,
-const, enum, anyOf, exclusiveMinimum, minLength, object properties and required fields, item
-counts): the reason a value does not match, worded for the person who wrote it. Numbers must be
-finite: NaN and infinity never match "number"."""
+const, enum, anyOf, minimum, exclusiveMinimum, maximum, minLength, object properties and required
+fields, items and item counts): the reason a value does not match, worded for the person who wrote
+it. Numbers must be finite: NaN and infinity never match "number". Other keywords ($ref,
+additionalProperties as a schema, default, description) are not checked here."""
 
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ def schema_problem(value: Any, schema: dict) -> str | None:
     if "anyOf" in schema:
         problems = [schema_problem(value, option) for option in schema["anyOf"]]
         return None if None in problems else " or ".join(p for p in problems if p)
-    if "const" in schema and (value != schema["const"] or type(value) is not type(schema["const"])):
+    if "const" in schema and not _same_json(value, schema["const"]):
         return f"must be {json.dumps(schema['const'])}, got {short_json(value)}"
     if "enum" in schema and (not isinstance(value, str) or value not in schema["enum"]):
         return f"must be one of {', '.join(schema['enum'])}, got {short_json(value)}" + (
@@ -31,8 +32,11 @@ def schema_problem(value: Any, schema: dict) -> str | None:
         types = [types] if isinstance(types, str) else types
         if not any(is_json_type(value, t) for t in types):
             return f"must be {' or '.join(types)}" + (" (finite)" if "number" in types else "") + f", got {short_json(value)}"
-    if is_json_type(value, "number") and "exclusiveMinimum" in schema and not value > schema["exclusiveMinimum"]:
-        return f"must be above {schema['exclusiveMinimum']}, got {value}"
+    if is_json_type(value, "number") and (problem := _range_problem(value, schema)):
+        return problem
+    if isinstance(value, str) and len(value) < schema.get("minLength", 0):
+        return ("must not be empty" if schema["minLength"] == 1
+                else f"must be at least {schema['minLength']} characters long, got {short_json(value)}")
     if isinstance(value, dict) and "properties" in schema:
         return next((f"{message}" + (f" ({hint})" if hint else "") for message, _, hint in
                      object_problems(value, schema, "")), None)
@@ -44,6 +48,25 @@ def schema_problem(value: Any, schema: dict) -> str | None:
             if problem:
                 return f"item {i} {problem}"
     return None
+
+
+def _range_problem(number: float, schema: dict) -> str | None:
+    """Why a number is outside the bounds of `schema`, or None."""
+    if "minimum" in schema and not number >= schema["minimum"]:
+        return f"must be at least {schema['minimum']}, got {number}"
+    if "exclusiveMinimum" in schema and not number > schema["exclusiveMinimum"]:
+        return f"must be above {schema['exclusiveMinimum']}, got {number}"
+    if "maximum" in schema and not number <= schema["maximum"]:
+        return f"must be at most {schema['maximum']}, got {number}"
+    return None
+
+
+def _same_json(value: Any, const: Any) -> bool:
+    """Equal as JSON values: numbers by value (1 and 1.0 alike), anything else of the same type too
+    (true is not 1)."""
+    if is_json_type(value, "number") and is_json_type(const, "number"):
+        return value == const
+    return type(value) is type(const) and value == const
 
 
 def is_json_type(value: Any, json_type: str) -> bool:

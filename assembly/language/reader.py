@@ -3,23 +3,21 @@ validated before anything runs, into a `TreeDocument`."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from assembly.design.model import DesignModel
 from assembly.errors import TreeError, TreeErrors
 from assembly.language.dataflow import dataflow_errors
+from assembly.language.fields import CELL_FIELDS, TOP_FIELDS, Field, required
 from assembly.language.kinds import NODE_KINDS
 from assembly.language.plugins import load_plugins
-from assembly.language.validator import NodeSpec, Scope, SubtreeDef, Validator, short, subtree_params
+from assembly.language.validator import NodeSpec, Scope, SubtreeDef, Validator, subtree_params
 from behaviours.skill_kit.keys import PERCEPTION_KEYS
 from fileio.errors import FvtreeError, did_you_mean
+from fileio.schema_check import schema_problem
 from fileio.yaml_source import Located, load_file, load_text
-
-TOP_FIELDS = {"version", "name", "doc", "cell", "design", "include", "subtrees", "root"}
-CELL_FIELDS = {"tick_hz": (int, float), "scene": (str,), "tolerances": (dict,)}
-SUPPORTED_VERSIONS = (1,)
-SUBTREE_FIELDS = ("params", "root", "doc")
 
 
 @dataclass
@@ -43,98 +41,103 @@ def _scenes() -> dict:
     return SCENES
 
 
-def _top_level(doc: object, file: str, errors: list[TreeError], need_root: bool) -> bool:
-    """Check the top-level fields of a tree (or included) file; False if it is not even a mapping."""
+def _top_level(doc: object, file: str, errors: list[TreeError], tree_file: bool) -> bool:
+    """Check the fields of a tree (or, not `tree_file`, an included) file against their tables;
+    False if it is not even a mapping."""
     if not isinstance(doc, Located):
         errors.append(TreeError("a tree file is a YAML mapping (version, name, root, ...)", file, 1))
         return False
-    for key in doc:
-        if key not in TOP_FIELDS:
-            errors.append(TreeError(f"unknown top-level field {key!r}", file, doc.line_of(key),
-                                    hint=did_you_mean(key, TOP_FIELDS)))
-    if doc.get("version") not in SUPPORTED_VERSIONS:
-        errors.append(TreeError(f"'version' must be one of {SUPPORTED_VERSIONS}, got {doc.get('version')!r}",
-                                file, doc.line_of("version")))
-    required = ("name", "root") if need_root else ()
-    for key in required:
-        if key not in doc:
-            errors.append(TreeError(f"missing top-level field {key!r}", file, doc.line))
-    for key in ("name", "design"):
-        if key in doc and (not isinstance(doc[key], str) or not doc[key]):
-            errors.append(TreeError(f"'{key}' must be a non-empty string, got {short(doc[key])}", file,
-                                    doc.line_of(key)))
+    _FieldCheck(file, tree_file, errors).mapping(doc, TOP_FIELDS, "")
     return True
+
+
+@dataclass
+class _FieldCheck:
+    """Checks the mappings of one file against their tables of fields (`assembly.language.fields`),
+    each problem at its own line with the field's path."""
+
+    file: str
+    tree_file: bool  # the tree file loaded, not an included one (`fields.TREE_FILE`)
+    errors: list[TreeError]
+
+    def mapping(self, mapping: Located, table: Mapping[str, Field], where: str) -> None:
+        """Each unknown field (with a did-you-mean), each missing one, and each value. `where` is the
+        mapping's field path, "" at the top."""
+        noun = "field" if where else "top-level field"
+        for key, value in mapping.items():
+            if key in table:
+                self.value(value, table[key], f"{where}.{key}" if where else str(key), mapping.line_of(key))
+            else:
+                self.errors.append(TreeError(f"unknown {noun} {key!r}", self.file, mapping.line_of(key), where or None,
+                                             did_you_mean(key, table) or f"known: {', '.join(table)}"))
+        for key in required(table, self.tree_file):
+            if key not in mapping:
+                self.errors.append(TreeError(f"missing {noun} {key!r}", self.file, mapping.line, where or None,
+                                             table[key].doc))
+
+    def value(self, value: object, field: Field, where: str, line: int) -> None:
+        """A value against its field's schema, then its own fields or named entries, each at its own
+        line; the insides of a value that code checks (`Field.checked_by`) are left to that code."""
+        problem = schema_problem(value, field.schema)
+        if problem:
+            self.errors.append(TreeError(problem, self.file, line, where, field.doc))
+        elif field.checked_by or not isinstance(value, Located):
+            return
+        elif field.fields is not None:
+            self.mapping(value, field.fields, where)
+        elif field.entries is not None:
+            for name, entry in value.items():
+                self.value(entry, field.entries, f"{where}.{name}", value.line_of(name))
+
+
+def _fits(mapping: Located, key: str) -> bool:
+    """`key` is a top-level field of `mapping` whose value fits its schema (a misfit is reported by
+    `_FieldCheck`, and not read any further)."""
+    return key in mapping and schema_problem(mapping[key], TOP_FIELDS[key].schema) is None
 
 
 def _collect_subtrees(doc: Located, file: str, out: dict[str, SubtreeDef], errors: list[TreeError],
                       seen_files: tuple[str, ...]) -> None:
-    """Subtrees of this file and, recursively, of its includes."""
+    """Subtrees of this file and, recursively, of its includes (their fields are checked with the
+    top level: here the include cycles, the subtrees defined twice and the param declarations)."""
     base = Path(file).parent
-    includes = doc.get("include", []) or []
-    if not isinstance(includes, list):
-        errors.append(TreeError("'include' must be a list of files", file, doc.line_of("include")))
-        includes = []
+    includes = (doc["include"] or []) if _fits(doc, "include") else []
     for i, rel in enumerate(includes):
-        line = includes.item_lines[i] if hasattr(includes, "item_lines") else doc.line_of("include")
-        target = str((base / str(rel)).resolve())
+        line = includes.item_lines[i]
+        target = str((base / rel).resolve())
         if target in seen_files:
             errors.append(TreeError(f"include cycle: {' -> '.join(seen_files + (target,))}", file, line))
             continue
         try:
-            sub = load_file(base / str(rel))
+            sub = load_file(base / rel)
         except FvtreeError as exc:
             errors.append(TreeError(f"include {rel!r}: {exc.message}", exc.file or file,
                                     exc.line or line))
             continue
-        if _top_level(sub, str(base / str(rel)), errors, need_root=False):
-            _collect_subtrees(sub, str(base / str(rel)), out, errors, seen_files + (target,))
-    subtrees = doc.get("subtrees", {}) or {}
-    if not isinstance(subtrees, dict):
-        errors.append(TreeError("'subtrees' must map names to {params, root}", file, doc.line_of("subtrees")))
-        return
+        if _top_level(sub, str(base / rel), errors, tree_file=False):
+            _collect_subtrees(sub, str(base / rel), out, errors, seen_files + (target,))
+    subtrees = (doc["subtrees"] or {}) if _fits(doc, "subtrees") else {}
     for name, body in subtrees.items():
-        line = subtrees.line_of(name) if isinstance(subtrees, Located) else doc.line
+        if not isinstance(body, Located) or "root" not in body:
+            continue  # reported with the fields
+        line = subtrees.line_of(name)
         if name in out:
             errors.append(TreeError(f"subtree {name!r} is defined twice", file, line,
                                     hint=f"also in {out[name].file}:{out[name].line}"))
             continue
-        if not isinstance(body, Located) or "root" not in body:
-            errors.append(TreeError(f"subtree {name!r} needs a 'root' node", file, line))
-            continue
-        for key in body:
-            if key not in SUBTREE_FIELDS:
-                errors.append(TreeError(f"unknown field {key!r} in subtree {name!r}", file,
-                                        body.line_of(key), hint=did_you_mean(key, SUBTREE_FIELDS)))
-        params = subtree_params(body.get("params"), body, name, errors)
-        out[name] = SubtreeDef(name, params, body["root"], file, line)
+        params = body.get("params") if isinstance(body.get("params"), dict) else None
+        out[name] = SubtreeDef(name, subtree_params(params, body, name, errors), body["root"], file, line)
 
 
 def _cell_settings(doc: Located, file: str, errors: list[TreeError]) -> tuple[float, str]:
-    """The tree's `cell:` settings (tick rate, simulated scene), checked."""
-    cell = doc.get("cell", {}) or {}
-    if not isinstance(cell, dict):
-        errors.append(TreeError("'cell' must be a mapping", file, doc.line_of("cell")))
-        cell = {}
-    for key, value in cell.items():
-        if key not in CELL_FIELDS:
-            errors.append(TreeError(f"unknown cell setting {key!r}", file, cell.line_of(key),
-                                    hint=did_you_mean(key, CELL_FIELDS)))
-        elif not isinstance(value, CELL_FIELDS[key]) or isinstance(value, bool):
-            errors.append(TreeError(f"cell.{key} has the wrong type: {value!r}", file, cell.line_of(key)))
-    scene = cell.get("scene", "assembly")
+    """The tree's tick rate and simulated scene (their values are checked with the fields; here
+    that the simulator knows the scene)."""
+    cell = doc.get("cell") if isinstance(doc.get("cell"), Located) else {}
+    scene = cell.get("scene", CELL_FIELDS["scene"].schema["default"])
     if isinstance(scene, str) and scene not in _scenes():
         errors.append(TreeError(f"no simulated scene {scene!r}", file, cell.line_of("scene"), "cell.scene",
                                 did_you_mean(scene, _scenes()) or f"known: {', '.join(sorted(_scenes()))}"))
-    tolerances = cell.get("tolerances")
-    for name, value in tolerances.items() if isinstance(tolerances, dict) else ():
-        if not isinstance(value, (int, float)) or isinstance(value, bool) or value < 0:
-            errors.append(TreeError(f"cell.tolerances.{name} must be a number >= 0, got {value!r}", file,
-                                    tolerances.line_of(name)))
-    tick_hz = cell.get("tick_hz", 30)
-    if isinstance(tick_hz, (int, float)) and not 0 < tick_hz <= 1000:
-        errors.append(TreeError(f"cell.tick_hz must be in (0, 1000], got {tick_hz}", file,
-                                cell.line_of("tick_hz")))
-    return tick_hz, scene
+    return cell.get("tick_hz", CELL_FIELDS["tick_hz"].schema["default"]), scene
 
 
 def with_scene(doc: TreeDocument, scene: str) -> TreeDocument:
@@ -147,8 +150,8 @@ def with_scene(doc: TreeDocument, scene: str) -> TreeDocument:
 
 def _design(doc: Located, file: str, errors: list[TreeError]) -> DesignModel | None:
     """The design model the tree names (relative to the tree file), if any."""
-    if not isinstance(doc.get("design"), str):
-        return None  # none, or not a path (reported with the top-level fields)
+    if not _fits(doc, "design"):
+        return None  # none, or not a path (reported with the fields)
     try:
         return DesignModel.load(Path(file).parent / str(doc["design"]))
     except FvtreeError as exc:
@@ -172,7 +175,7 @@ def load_tree(path: str | Path | None = None, text: str | None = None, name: str
     except FvtreeError as exc:
         raise TreeErrors([exc]) from None
     errors: list[TreeError] = []
-    if not _top_level(doc, file, errors, need_root=True):
+    if not _top_level(doc, file, errors, tree_file=True):
         raise TreeErrors(errors)
     tick_hz, scene = _cell_settings(doc, file, errors)
     design = _design(doc, file, errors)

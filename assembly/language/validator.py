@@ -331,6 +331,10 @@ def subtree_params(raw: Any, where: Located, name: str, errors: list[TreeError])
         if extra:
             errors.append(TreeError(f"param {pname!r}: unknown field {min(extra)!r}", where.file,
                                     line, f"subtrees/{name}", did_you_mean(min(extra), PARAM_FIELDS)))
+        text = next((key for key in ("doc", "unit") if not isinstance(decl.get(key, ""), str)), None)
+        if text:
+            errors.append(TreeError(f"param {pname!r}: {text} must be a string, got {short(decl[text])}",
+                                    where.file, line, f"subtrees/{name}"))
         param = Param(ptype, decl.get("doc", ""), decl.get("default", REQUIRED), decl.get("unit", ""))
         if not param.required:
             try:

@@ -8,6 +8,7 @@ validated like any tree file before it is returned.
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -28,6 +29,8 @@ from fileio.xml_source import XmlNode, parse_xml_file
 COMPOSITES = {"Sequence": ("sequence", True), "ReactiveSequence": ("sequence", False),
               "Fallback": ("selector", True), "ReactiveFallback": ("selector", False)}
 PARALLELS = {("-1", "1"): ("all", True), ("1", "1"): ("one", False)}
+COUNTED = {"RetryUntilSuccessful": ("retry", "num_attempts", "attempts"), "Repeat": ("repeat", "num_cycles", "times")}
+FORCED = {"ForceSuccess": "failure:success", "ForceFailure": "success:failure"}  # as status_map pairs
 LAYOUT_ATTRS = {"_uid", "_fullpath", "_description"}  # Groot2's metadata: `_description` becomes `doc`
 NO_EQUIVALENT = {
     "SequenceWithMemory": "after a failure it resumes at the failed child; fvtree sequences start again "
@@ -120,96 +123,117 @@ class _Reader:
             return None
 
     def _node(self, x: XmlNode) -> dict | None:
-        tag, a = x.tag, x.attrs
-        name = a.get("name", tag)
-        if tag in COMPOSITES:
-            self.own_attrs(x, {"_while"})
-            kind, memory = COMPOSITES[tag]
-            return {kind: name, "memory": memory, "children": self.children(x, one=False)}
-        if tag == "Parallel":
-            self.own_attrs(x, {"success_count", "failure_count", "_while"})
-            counts = (a.get("success_count", "-1"), a.get("failure_count", "1"))
-            if counts not in PARALLELS:
-                self.refuse(x, f"Parallel success_count={counts[0]} failure_count={counts[1]} has no equivalent",
-                            "fvtree parallels fail on the first failure and succeed on all (-1) or one (1)")
-                return None
-            policy, sync = PARALLELS[counts]
-            return {"parallel": name, "policy": policy, "synchronise": sync,
-                    "children": self.children(x, one=False)}
-        if tag == "FvParallel":
-            self.own_attrs(x, {"policy", "synchronise", "selected", "_while"})
-            out = {"parallel": name, "policy": a.get("policy"), "synchronise": self.port(x, "synchronise", "bool")
-                   if "synchronise" in a else False}
-            if "selected" in a:
-                out["selected"] = a["selected"].split(";")
-            return {**out, "children": self.children(x, one=False)}
-        decorators = {"RetryUntilSuccessful": ("retry", "num_attempts", "attempts"),
-                      "Repeat": ("repeat", "num_cycles", "times")}
-        if tag in decorators:
-            kind, attr, ours = decorators[tag]
-            self.own_attrs(x, {attr, "_while"})
-            if attr not in a:
-                self.refuse(x, f"<{tag}> needs {attr}")
-                return None
-            return {kind: name, ours: self.port(x, attr, "int"), "child": self._child(x)}
-        if tag == "Timeout":
-            self.own_attrs(x, {"msec", "_while"})
-            msec = self.port(x, "msec", "int") if "msec" in a else None
-            if not isinstance(msec, int):
-                self.refuse(x, "<Timeout> needs msec as an integer", "fvtree timeouts cannot take a $param")
-                return None
-            seconds = msec / 1000
-            return {"timeout": name, "seconds": int(seconds) if seconds == int(seconds) else seconds,
-                    "child": self._child(x)}
-        if tag in ("Inverter", "ForceSuccess", "ForceFailure", "StatusMap"):
-            self.own_attrs(x, {"map", "_while"} if tag == "StatusMap" else {"_while"})
-            if tag == "Inverter":
-                return {"inverter": name, "child": self._child(x)}
-            pairs = {"ForceSuccess": "failure:success", "ForceFailure": "success:failure"}.get(tag, a.get("map", ""))
-            mapping = dict(p.split(":", 1) for p in pairs.split(";") if ":" in p)
-            return {"status_map": name, "map": mapping, "child": self._child(x)}
-        if tag == "Guard":
-            self.own_attrs(x, {"_while"})
-            if "_while" not in a:
-                self.refuse(x, "<Guard> needs a _while script")
-                return None
-            cond = self.condition(x, a["_while"])
-            return None if cond is None else {"guard": name, "while": cond, "child": self._child(x)}
-        if tag == "ForEachElement":
-            self.own_attrs(x, {"elements", "_while"})
-            out = {"for_each_element": name}
-            if "elements" in a:
-                out["elements"] = [e for e in a["elements"].split(";") if e]
-            return {**out, "child": self._child(x)}
-        if tag == "ScriptCondition":
-            self.own_attrs(x, {"code", "_while"})
-            cond = self.condition(x, a.get("code", ""))
-            return None if cond is None else {"condition": name, **cond}
-        if tag == "BlackboardCheck":
-            self.own_attrs(x, {"key", "op", "value", "_while"})
-            out = {"condition": name, "key": a.get("key"), "op": a.get("op")}
-            if "value" in a:
-                try:
-                    out["value"] = json.loads(a["value"])
-                except json.JSONDecodeError:
-                    self.refuse(x, f"value: not JSON: {a['value']!r}")
-            return out
-        if tag == "SubTree":
-            return self._subtree(x)
-        if tag in SKILLS:
+        """The fvtree node of one BT.CPP node (its pre-conditions aside), or None if it is refused."""
+        if x.tag in CONVERTERS:
+            return CONVERTERS[x.tag](self, x)
+        if x.tag in SKILLS:
             return self._skill(x)
-        if tag in NO_EQUIVALENT:
-            self.refuse(x, f"<{tag}> has no equivalent", NO_EQUIVALENT[tag])
+        if x.tag in NO_EQUIVALENT:
+            self.refuse(x, f"<{x.tag}> has no equivalent", NO_EQUIVALENT[x.tag])
         else:
-            self.refuse(x, f"<{tag}> is neither a BT.CPP node with an fvtree equivalent nor a skill",
-                        did_you_mean(tag, [*SKILLS, *COMPOSITES]) or "run 'fvtree skills' to list the skills")
+            self.refuse(x, f"<{x.tag}> is neither a BT.CPP node with an fvtree equivalent nor a skill",
+                        did_you_mean(x.tag, [*SKILLS, *COMPOSITES]) or "run 'fvtree skills' to list the skills")
         return None
+
+    def _composite(self, x: XmlNode) -> dict:
+        """A (reactive) Sequence or Fallback: a sequence or selector, with memory unless reactive."""
+        self.own_attrs(x, {"_while"})
+        kind, memory = COMPOSITES[x.tag]
+        return {kind: _name(x), "memory": memory, "children": self.children(x, one=False)}
+
+    def _parallel(self, x: XmlNode) -> dict | None:
+        """BT.CPP's Parallel, for the success and failure counts an fvtree policy has."""
+        self.own_attrs(x, {"success_count", "failure_count", "_while"})
+        counts = (x.attrs.get("success_count", "-1"), x.attrs.get("failure_count", "1"))
+        if counts not in PARALLELS:
+            self.refuse(x, f"Parallel success_count={counts[0]} failure_count={counts[1]} has no equivalent",
+                        "fvtree parallels fail on the first failure and succeed on all (-1) or one (1)")
+            return None
+        policy, sync = PARALLELS[counts]
+        return {"parallel": _name(x), "policy": policy, "synchronise": sync, "children": self.children(x, one=False)}
+
+    def _fv_parallel(self, x: XmlNode) -> dict:
+        """The exporter's FvParallel: an fvtree parallel with its policy as written."""
+        self.own_attrs(x, {"policy", "synchronise", "selected", "_while"})
+        a = x.attrs
+        out = {"parallel": _name(x), "policy": a.get("policy"), "synchronise": self.port(x, "synchronise", "bool")
+               if "synchronise" in a else False}
+        if "selected" in a:
+            out["selected"] = a["selected"].split(";")
+        return {**out, "children": self.children(x, one=False)}
+
+    def _counted(self, x: XmlNode) -> dict | None:
+        """RetryUntilSuccessful or Repeat: retry or repeat, with its count."""
+        kind, attr, ours = COUNTED[x.tag]
+        self.own_attrs(x, {attr, "_while"})
+        if attr not in x.attrs:
+            self.refuse(x, f"<{x.tag}> needs {attr}")
+            return None
+        return {kind: _name(x), ours: self.port(x, attr, "int"), "child": self._child(x)}
+
+    def _timeout(self, x: XmlNode) -> dict | None:
+        """Timeout: a timeout in seconds (a whole number where it is one)."""
+        self.own_attrs(x, {"msec", "_while"})
+        msec = self.port(x, "msec", "int") if "msec" in x.attrs else None
+        if not isinstance(msec, int):
+            self.refuse(x, "<Timeout> needs msec as an integer", "fvtree timeouts cannot take a $param")
+            return None
+        seconds = msec / 1000
+        return {"timeout": _name(x), "seconds": int(seconds) if seconds == int(seconds) else seconds,
+                "child": self._child(x)}
+
+    def _inverter(self, x: XmlNode) -> dict:
+        """Inverter: an inverter."""
+        self.own_attrs(x, {"_while"})
+        return {"inverter": _name(x), "child": self._child(x)}
+
+    def _status_map(self, x: XmlNode) -> dict:
+        """ForceSuccess, ForceFailure or the exporter's StatusMap: a status_map."""
+        self.own_attrs(x, {"map", "_while"} if x.tag == "StatusMap" else {"_while"})
+        pairs = FORCED.get(x.tag, x.attrs.get("map", ""))
+        mapping = dict(p.split(":", 1) for p in pairs.split(";") if ":" in p)
+        return {"status_map": _name(x), "map": mapping, "child": self._child(x)}
+
+    def _guard(self, x: XmlNode) -> dict | None:
+        """The exporter's Guard: a guard, its condition the _while script."""
+        self.own_attrs(x, {"_while"})
+        if "_while" not in x.attrs:
+            self.refuse(x, "<Guard> needs a _while script")
+            return None
+        cond = self.condition(x, x.attrs["_while"])
+        return None if cond is None else {"guard": _name(x), "while": cond, "child": self._child(x)}
+
+    def _for_each_element(self, x: XmlNode) -> dict:
+        """The exporter's ForEachElement: for_each_element, over the listed elements if any."""
+        self.own_attrs(x, {"elements", "_while"})
+        out = {"for_each_element": _name(x)}
+        if "elements" in x.attrs:
+            out["elements"] = [e for e in x.attrs["elements"].split(";") if e]
+        return {**out, "child": self._child(x)}
+
+    def _script_condition(self, x: XmlNode) -> dict | None:
+        """ScriptCondition: a condition, if its script is one comparison of a blackboard key."""
+        self.own_attrs(x, {"code", "_while"})
+        cond = self.condition(x, x.attrs.get("code", ""))
+        return None if cond is None else {"condition": _name(x), **cond}
+
+    def _blackboard_check(self, x: XmlNode) -> dict:
+        """The exporter's BlackboardCheck: a condition, its value JSON."""
+        self.own_attrs(x, {"key", "op", "value", "_while"})
+        out = {"condition": _name(x), "key": x.attrs.get("key"), "op": x.attrs.get("op")}
+        if "value" in x.attrs:
+            try:
+                out["value"] = json.loads(x.attrs["value"])
+            except json.JSONDecodeError:
+                self.refuse(x, f"value: not JSON: {x.attrs['value']!r}")
+        return out
 
     def _child(self, x: XmlNode) -> dict | None:
         kids = self.children(x, one=True)
         return kids[0] if kids else None
 
     def _skill(self, x: XmlNode) -> dict:
+        """A node whose tag is a skill's name: the skill, its ports as params (model files rebased)."""
         cls = SKILLS[x.tag]
         self.own_attrs(x, {*cls.PARAMS, "_while"})
         params = {k: self.port(x, k, cls.PARAMS[k].type) for k in x.attrs if k in cls.PARAMS}
@@ -223,6 +247,7 @@ class _Reader:
         return out
 
     def _subtree(self, x: XmlNode) -> dict | None:
+        """SubTree: a subtree of this file, its ports as params typed by the subtree's declaration."""
         ref = x.attrs.get("ID")
         if ref not in self.subtree_types:
             self.refuse(x, f"<SubTree ID={ref!r}> names no <BehaviorTree> of this file",
@@ -239,6 +264,21 @@ class _Reader:
         if params:
             out["params"] = params
         return out
+
+
+CONVERTERS: dict[str, Callable[[_Reader, XmlNode], dict | None]] = {
+    **dict.fromkeys(COMPOSITES, _Reader._composite), "Parallel": _Reader._parallel,
+    "FvParallel": _Reader._fv_parallel, **dict.fromkeys(COUNTED, _Reader._counted), "Timeout": _Reader._timeout,
+    "Inverter": _Reader._inverter, **dict.fromkeys(("ForceSuccess", "ForceFailure", "StatusMap"), _Reader._status_map),
+    "Guard": _Reader._guard, "ForEachElement": _Reader._for_each_element,
+    "ScriptCondition": _Reader._script_condition, "BlackboardCheck": _Reader._blackboard_check,
+    "SubTree": _Reader._subtree,
+}  # BT.CPP tag -> the converter to its fvtree node kind (a tag that is a skill's name: _Reader._skill)
+
+
+def _name(x: XmlNode) -> str:
+    """The node's name: its `name` attribute, else its tag."""
+    return x.attrs.get("name", x.tag)
 
 
 def _kind_key(node: dict) -> str:
@@ -271,7 +311,7 @@ def _metadata(root: XmlNode, file: str) -> dict:
 
 
 OUR_TYPES = {bt: ours for ours, bt in PORT_TYPES.items()}
-INT_PORTS = {("RetryUntilSuccessful", "num_attempts"), ("Repeat", "num_cycles")}
+INT_PORTS = {(tag, attr) for tag, (_, attr, _) in COUNTED.items()}
 
 
 def _port_types(x: XmlNode, out: dict[str, str]) -> dict[str, str]:
