@@ -1,5 +1,6 @@
-"""The package layering and the no-cycle rule are contracts (pyproject.toml, import-linter), and
-the code stays clean under ruff's rules (pyproject.toml's [tool.ruff])."""
+"""The package layering and the no-cycle rule are contracts (pyproject.toml, import-linter), the
+code stays clean under ruff's rules (pyproject.toml's [tool.ruff]), and mypy finds no type error in
+the packages it checks (pyproject.toml's [tool.mypy])."""
 
 from __future__ import annotations
 
@@ -22,5 +23,16 @@ def test_import_contracts_hold(capsys, monkeypatch):
 
 def test_ruff_finds_nothing():
     done = subprocess.run([sys.executable, "-m", "ruff", "check", "--no-cache", str(ROOT)], capture_output=True,
+                          text=True, check=False)
+    assert done.returncode == 0, done.stdout + done.stderr
+
+
+TYPE_CHECKED = ("assembly", "behaviours", "fileio")
+
+
+def test_mypy_finds_nothing():
+    """The cache under the repository (mypy ignores it in git) makes a second run take seconds, not a minute."""
+    done = subprocess.run([sys.executable, "-m", "mypy", "--config-file", str(ROOT / "pyproject.toml"),
+                           "--cache-dir", str(ROOT / ".mypy_cache"), *TYPE_CHECKED], cwd=ROOT, capture_output=True,
                           text=True, check=False)
     assert done.returncode == 0, done.stdout + done.stderr
