@@ -33,6 +33,7 @@ from behaviours.skill_kit.hand import slip_beyond_marker_flow
 from behaviours.skill_kit.load_search import locate_peak
 from behaviours.skill_kit.registry import register
 from behaviours.skill_kit.transit import plate_of
+from perception.state import TactileState
 
 
 @register
@@ -132,7 +133,11 @@ class FindMaxLoad(ProgramSkill):
         if fault:
             return None, fault, False
 
-        positions, loads, recent, slipped, last = [], [], deque(maxlen=self.p.slip_ticks), [False], [None]
+        positions: list[float] = []
+        loads: list[float] = []
+        recent: deque[float] = deque(maxlen=self.p.slip_ticks)
+        slipped = [False]
+        last: list[tuple[TactileState, TactileState] | None] = [None]  # the fingertips of the tick before
         # Written once; the lists grow as the scan goes, so a live view can draw the profile growing.
         self.write(keys.LOAD_SCAN, {"plate": element["plate"], "position": positions, "load": loads})
 

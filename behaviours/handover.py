@@ -106,7 +106,8 @@ class Handover(ProgramSkill):
         held_area = object_area(*self.tactile())
         if held_area <= 0.0:
             return self.fail("nothing in the gripper to give")
-        f0, recent = self._pull(), deque(maxlen=self.RATE_TICKS + 1)
+        f0 = self._pull()
+        recent: deque[float] = deque(maxlen=self.RATE_TICKS + 1)
         while True:
             if not still_seen(object_area(*self.tactile()), held_area, self.p.gone_share):
                 return self.fail("the object slipped out while waiting for the person: grasp it firmer, "

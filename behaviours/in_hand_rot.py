@@ -51,9 +51,10 @@ class InHandRot(ProgramSkill):
         for look in range(angle.ticks):  # the start angle as steady as the angles the turn is judged by
             if look:
                 yield
-            theta0 = angle.update(object_angle(*self.tactile()))
-            if theta0 is None:
+            seen = angle.update(object_angle(*self.tactile()))
+            if seen is None:
                 return self.fail("no object seen between the fingers to rotate")
+            theta0 = seen
         width0, start = self.gripper_width(), self.now()
         drive, quiet, turned, since_slip = LeakyIntegrator(self.p.alpha), 0, 0.0, self.p.slip_hold
         while turned < self.p.target:

@@ -7,7 +7,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from drivers.clock import SimClock, WallClock
-from drivers.protocols import Camera, Gripper, PerceptionSource, World
+from drivers.protocols import Camera, PerceptionSource, World
+from drivers.safe_gripper import SafeGripper
 from drivers.safety import SafeArm
 
 
@@ -17,7 +18,7 @@ class Cell:
 
     name: str
     arm: SafeArm
-    gripper: Gripper
+    gripper: SafeGripper
     clock: SimClock | WallClock
     sense: PerceptionSource  # fills /fv/<finger> each tick
     cameras: dict[str, Camera] = field(default_factory=dict)

@@ -5,7 +5,7 @@ every package can raise it."""
 from __future__ import annotations
 
 import difflib
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 
 
 class FvtreeError(Exception):
@@ -32,7 +32,7 @@ class FvtreeError(Exception):
 class FvtreeErrors(FvtreeError):
     """Every problem found while checking one input, reported together."""
 
-    def __init__(self, errors: list[FvtreeError]):
+    def __init__(self, errors: Sequence[FvtreeError]):
         super().__init__("\n".join(map(str, errors)))
         self.errors = errors
 

@@ -66,7 +66,7 @@ def append_json_line_or_stderr(path: Path, record: dict) -> bool:
 
 def read_json_lines(path: Path) -> list[dict]:
     """The records of a JSON-lines file (none if it is missing), skipping a line torn by a crash."""
-    records = []
+    records: list[dict] = []
     try:
         text = Path(path).read_text()
     except FileNotFoundError:

@@ -5,6 +5,7 @@ duplicate keys, malformed text and deep nesting are refused with the line."""
 from __future__ import annotations
 
 import json
+import json.scanner
 from pathlib import Path
 from typing import Any
 
@@ -16,10 +17,13 @@ def load_json(path: str | Path) -> Any:
     line of each key); a located SourceError for malformed JSON, duplicate keys or deep nesting."""
     text = read_text(path)
     decoder = json.JSONDecoder()
+    # The pure-Python decoder's hooks used here (JSONObject, scan_once, parse_object, py_make_scanner) are
+    # real but undocumented, and typeshed leaves them out: hence the ignores below.
 
     def parse_object(s_and_end: tuple[str, int], *args: Any) -> tuple[Located, int]:
         s, start = s_and_end
-        pairs, end = json.decoder.JSONObject(s_and_end, decoder.strict, decoder.scan_once, None, list, memo)
+        pairs, end = json.decoder.JSONObject(  # type: ignore[attr-defined]
+            s_and_end, decoder.strict, decoder.scan_once, None, list, memo)  # type: ignore[attr-defined]
         out = Located()
         out.file, out.line, out.key_lines = str(path), s.count("\n", 0, start) + 1, {}
         cursor = start
@@ -33,8 +37,8 @@ def load_json(path: str | Path) -> Any:
         return out, end
 
     memo: dict = {}
-    decoder.parse_object = parse_object
-    decoder.scan_once = json.scanner.py_make_scanner(decoder)  # the Python scanner calls parse_object
+    decoder.parse_object = parse_object  # type: ignore[attr-defined]
+    decoder.scan_once = json.scanner.py_make_scanner(decoder)  # type: ignore[attr-defined]  # it calls parse_object
     try:
         return decoder.decode(text)
     except json.JSONDecodeError as exc:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NoReturn
 from xml.parsers import expat
 
 from fileio.yaml_source import MAX_BYTES, SourceError, read_text
@@ -42,7 +43,7 @@ def parse_xml_text(text: str, name: str) -> XmlNode:
     roots: list[XmlNode] = []
     count = 0
 
-    def refuse(*_args) -> None:
+    def refuse(*_args: object) -> NoReturn:
         raise _Refused("DOCTYPE and entity declarations are not read (BT.CPP files have none)")
 
     def start(tag: str, attrs: dict[str, str]) -> None:

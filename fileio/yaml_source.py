@@ -16,7 +16,7 @@ import math
 import os
 import stat
 from pathlib import Path
-from typing import Any
+from typing import Any, overload
 
 import yaml
 
@@ -50,6 +50,10 @@ class LocatedList(list):
     item_lines: list
 
 
+@overload
+def _line(mark: yaml.Mark) -> int: ...
+@overload
+def _line(mark: yaml.Mark | None) -> int | None: ...
 def _line(mark: yaml.Mark | None) -> int | None:
     return mark.line + 1 if mark is not None else None
 

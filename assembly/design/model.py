@@ -22,6 +22,7 @@ from assembly.errors import TreeError
 from fileio.errors import did_you_mean
 from fileio.json_source import load_json
 from fileio.schema_check import object_problems, short_json
+from fileio.yaml_source import Located
 
 # placing: released but not yet recorded as standing. A live link (assembly.design.link) also shows
 # the passing states picking and failed, which no design or as-built file holds.
@@ -67,7 +68,7 @@ NODE_SCHEMAS = {
 EDGE_SCHEMA = {"type": "object", "additionalProperties": False, "required": ["source", "target"],
                "description": "source must be in place before target",
                "properties": {"source": {"type": "string"}, "target": {"type": "string"}}}
-DOCUMENT_SCHEMA = {
+DOCUMENT_SCHEMA: dict[str, Any] = {
     "type": "object", "additionalProperties": False, "required": ["nodes", "edges"],
     "properties": {
         "directed": {"const": True}, "multigraph": {"const": False},
@@ -115,10 +116,10 @@ class DesignModel:
         """Read and check a design file whole (see `design_schema`); a located TreeError otherwise."""
         path = Path(path)
         data = load_json(path)
-        if isinstance(data, dict) and "links" in data and "edges" not in data:
+        if isinstance(data, Located) and "links" in data and "edges" not in data:
             raise TreeError("edges are under 'links' (networkx < 3.6 default); rename the key to 'edges'",
                             str(path), data.line_of("links"))
-        if not isinstance(data, dict):
+        if not isinstance(data, Located):  # every JSON object load_json reads is one
             raise TreeError("not a node-link graph: a JSON object with 'nodes' and 'edges'", str(path), 1)
         for message, key, hint in object_problems(data, DOCUMENT_SCHEMA, "design"):
             raise TreeError(message, str(path), data.line_of(key), hint=hint)

@@ -38,7 +38,7 @@ def marked_skill(cls: type[Skill], note: str) -> type[Skill]:
     class Substituted(cls):  # type: ignore[misc, valid-type]
         def update(self) -> Status:
             status = super().update()
-            self.feedback_message = f"{note}: {self.feedback_message}"
+            self.feedback_message: str = f"{note}: {self.feedback_message}"  # (typed: the base is a variable)
             return status
 
     Substituted.__name__ = Substituted.__qualname__ = f"Substituted{cls.__name__}"

@@ -33,11 +33,12 @@ STATUSES = {"success": Status.SUCCESS, "failure": Status.FAILURE, "running": Sta
 POLICIES = ("all", "one", "selected")
 
 # JSON Schema of field values shared by several kinds (NODE: a child node).
-NODE = {"$ref": "#/$defs/node"}
-CHILDREN = {"type": "array", "items": NODE, "minItems": 1}
-BOOLEAN = {"type": "boolean"}
-STRING = {"type": "string"}
-CONDITION_FIELDS = {"key": {"type": "string", "pattern": "^/"}, "op": {"enum": list(ALL_OPS)}, "value": {}}
+NODE: dict[str, Any] = {"$ref": "#/$defs/node"}
+CHILDREN: dict[str, Any] = {"type": "array", "items": NODE, "minItems": 1}
+BOOLEAN: dict[str, Any] = {"type": "boolean"}
+STRING: dict[str, Any] = {"type": "string"}
+CONDITION_FIELDS: dict[str, dict[str, Any]] = {
+    "key": {"type": "string", "pattern": "^/"}, "op": {"enum": list(ALL_OPS)}, "value": {}}
 SCHEMA_DEFS = {"condition": {"type": "object", "required": ["key", "op"], "additionalProperties": False,
                              "properties": CONDITION_FIELDS}}
 
@@ -201,6 +202,7 @@ def _subtree(validator, spec, node, scope) -> None:
 # ---- builds ---------------------------------------------------------------------------------------
 def _build_parallel(spec: NodeSpec, kids: list[Behaviour]) -> Behaviour:
     a = spec.args
+    policy: ParallelPolicy.Base
     if a["policy"] == "all":
         policy = ParallelPolicy.SuccessOnAll(synchronise=a["synchronise"])
     elif a["policy"] == "one":

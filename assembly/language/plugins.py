@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from importlib.metadata import EntryPoint, entry_points
+from typing import Any
 
 from behaviours.skill_kit.base import Skill
 from behaviours.skill_kit.registry import SKILL_PACKAGES, SKILLS, register
@@ -35,7 +36,8 @@ def _package(ep: EntryPoint) -> str:
     return ep.dist.name if ep.dist is not None else ep.value.partition(":")[0]
 
 
-def _load(ep: EntryPoint, group: str, fits: Callable[[object], bool], what: str) -> object:
+def _load(ep: EntryPoint, group: str, fits: Callable[[object], bool], what: str) -> Any:
+    """The object the entry point names (foreign code, so typed only by what `fits` checked)."""
     where = f"plug-in {_package(ep)}: {group} entry point {ep.name} = {ep.value}"
     try:
         obj = ep.load()
@@ -47,6 +49,11 @@ def _load(ep: EntryPoint, group: str, fits: Callable[[object], bool], what: str)
     return obj
 
 
+def _skill_named(name: str) -> Callable[[object], bool]:
+    """Whether an object is a Skill class whose NAME is `name`."""
+    return lambda o: isinstance(o, type) and issubclass(o, Skill) and o.NAME == name
+
+
 def _clash(kind: str, name: str, ep: EntryPoint, taken_by: str) -> PluginError:
     return PluginError(f"plug-in {_package(ep)}: {kind} {name!r} clashes with the {kind} of that name from "
                        f"package {taken_by}", hint=f"rename the {kind} in {_package(ep)}")
@@ -56,8 +63,7 @@ def add_skills(found: Iterable[EntryPoint]) -> list[str]:
     """Register the skills the entry points name; returns their names."""
     names = []
     for ep in found:
-        cls = _load(ep, SKILL_GROUP, lambda o, name=ep.name: isinstance(o, type) and issubclass(o, Skill)
-                    and o.NAME == name, f"a Skill class whose NAME is {ep.name!r}")
+        cls = _load(ep, SKILL_GROUP, _skill_named(ep.name), f"a Skill class whose NAME is {ep.name!r}")
         if SKILLS.get(ep.name, cls) is not cls:
             raise _clash("skill", ep.name, ep, SKILL_PACKAGES[ep.name])
         register(cls, _package(ep))

@@ -45,12 +45,13 @@ class Rule:
     def double(self, spec: NodeSpec) -> NodeSpec:
         """The NodeSpec of the double standing in for `spec` (same name, path and place)."""
         note = f"substituted for {spec.kind} {spec.type or spec.name} by {self.describe()}"
-        common = {"children": [], "file": spec.file, "line": spec.line}
+        common: dict[str, Any] = {"children": [], "file": spec.file, "line": spec.line}
         if isinstance(self.spec, dict):
             params = _skill_params(self.spec["skill"], self.spec.get("params") or {}, self.source)
             return replace(spec, kind="skill_double", type=self.spec["skill"],
                            args={"params": params, "note": note}, **common)
         m = _STATUS.match(self.spec)
+        assert m is not None  # a status double: `_spec` matched it when the rule was read
         running, final = (0, m.group(1)) if m.group(1) else (int(m.group(2)), m.group(3))
         if final == "running":
             running = 1 << 62

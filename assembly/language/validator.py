@@ -229,7 +229,7 @@ class Validator:
             self.error(node, f"'{key}' must be a non-empty list of nodes", spec.path, key)
             return
         lines = items.item_lines if isinstance(items, LocatedList) else [node.line_of(key)] * len(items)
-        names = {}
+        names: dict[str, int] = {}  # child name -> its line
         for item, line in zip(items, lines):
             child = self.node(item, spec.path, scope, (node.file, line))
             if child is None:

@@ -76,6 +76,7 @@ class Selector(py_trees.composites.Selector):
             return
         index = 0
         if self.memory:
+            assert self.current_child is not None  # the first child, or the one left running
             index = children.index(self.current_child)
             _stop_all(children[:index])
         previous = self.current_child

@@ -10,13 +10,14 @@ from py_trees.common import Status
 
 from assembly.nodes.conditions import Condition
 from behaviours.skill_kit.base import require_tick_once
+from drivers.protocols import Clock
 
 RUNNING, INVALID = Status.RUNNING, Status.INVALID
 
 
-class DirectDecorator:
-    """Mixin giving a py_trees decorator whose `tick` is `Decorator.tick` a `tick_once` without
-    generators. Put it first among the bases; a subclass overriding `tick` overrides `tick_once` too."""
+class DirectDecorator(py_trees.decorators.Decorator):
+    """Gives a py_trees decorator whose `tick` is `Decorator.tick` a `tick_once` without generators.
+    Put it first among the bases; a subclass overriding `tick` overrides `tick_once` too."""
 
     def __init_subclass__(cls, **kwargs) -> None:
         super().__init_subclass__(**kwargs)
@@ -64,10 +65,11 @@ class CellTimeout(DirectDecorator, py_trees.decorators.Decorator):
     runs stay deterministic.
     """
 
+    clock: Clock  # the cell's, from `setup(cell=...)`
+
     def __init__(self, name: str, child: py_trees.behaviour.Behaviour, duration: float):
         super().__init__(name=name, child=child)
         self.duration = duration
-        self.clock = None
         self.deadline = 0.0
 
     def setup(self, **kwargs) -> None:

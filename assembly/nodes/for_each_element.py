@@ -5,10 +5,12 @@ from __future__ import annotations
 import py_trees
 from py_trees.common import Access, Status
 
-from assembly.design.model import WAIT
+from assembly.design.bridge import DesignBridge
+from assembly.design.model import WAIT, DesignModel
 from assembly.nodes.decorators import DirectDecorator
 from behaviours.skill_kit import keys
 from behaviours.skill_kit.base import KeyReads
+from drivers.protocols import World
 
 
 class ForEachElement(DirectDecorator, py_trees.decorators.Decorator):
@@ -26,12 +28,13 @@ class ForEachElement(DirectDecorator, py_trees.decorators.Decorator):
     resumes there).
     """
 
+    design: DesignModel  # from `setup(design=...)`, which refuses a tree without one
+
     def __init__(self, name: str, child: py_trees.behaviour.Behaviour, only: list[str] | None = None):
         super().__init__(name=name, child=child)
         self.only = only
-        self.design = None
-        self.bridge = None
-        self.world = None  # the simulated world, which stands what other cells placed
+        self.bridge: DesignBridge | None = None
+        self.world: World | None = None  # the simulated world, which stands what other cells placed
         self.current: str | None = None
         self._node: dict | None = None  # the current element's attributes in the design graph (live)
         self.waiting = False  # the dispatcher said to wait for another cell
@@ -43,11 +46,12 @@ class ForEachElement(DirectDecorator, py_trees.decorators.Decorator):
         self.reads = KeyReads(self.bb)
 
     def setup(self, **kwargs) -> None:
-        self.design = kwargs.get("design")
+        design = kwargs.get("design")
         self.bridge = kwargs.get("bridge")
         self.world = getattr(kwargs.get("cell"), "world", None)
-        if self.design is None:
+        if design is None:
             raise RuntimeError(f"{self.name}: for_each_element needs a design model (tree 'design:')")
+        self.design = design
 
     def remaining(self) -> list[str]:
         order = self.design.build_order()
@@ -126,8 +130,9 @@ class ForEachElement(DirectDecorator, py_trees.decorators.Decorator):
         self._hand_on_record()
         if status == Status.FAILURE:
             if self.bridge:
+                tip = self.decorated.tip()
                 self.bridge.event("failed", element=self.current, node=self.decorated.name,
-                                  feedback=self.decorated.tip().feedback_message if self.decorated.tip() else "")
+                                  feedback=tip.feedback_message if tip else "")
             return Status.FAILURE
         if status != Status.SUCCESS:
             return status
@@ -144,9 +149,11 @@ class ForEachElement(DirectDecorator, py_trees.decorators.Decorator):
             return
         self._record = record
         status = record.get("status", "placed")
+        element, node = self.current, self._node
+        assert element is not None and node is not None  # the child ticks only with an element to build
         if self.bridge is None:
-            self._node["status"] = status
+            node["status"] = status
         elif status == "placing":
-            self.bridge.record_placing(self.current, record["pose"], record.get("load"))
+            self.bridge.record_placing(element, record["pose"], record.get("load"))
         else:
-            self.bridge.record_placement(self.current, record["pose"], record.get("load"))
+            self.bridge.record_placement(element, record["pose"], record.get("load"))

@@ -14,7 +14,8 @@ FINGER_VALUES = ("force", "torque", "slip", "area", "centroid", "orientation", "
                  "valid")  # the columns a finger's TactileState gives a tick
 
 
-def column(descriptor: rr.ComponentDescriptor, batch: rr.ComponentBatchLike, per_row: int) -> rr.ComponentColumn:
+def column(descriptor: str | rr.ComponentDescriptor, batch: rr.ComponentBatchLike,
+           per_row: int) -> rr.ComponentColumn:
     """`batch` split into rows of `per_row` values each: the column an archetype's `columns(...)` and
     `partition(...)` make, built straight from it (they cost 0.05-0.4 ms a call checking the input and
     first splitting it into rows of one value each)."""
@@ -71,7 +72,7 @@ class TickColumns:
         self.ticks: list[int] = []
         self.times: list[float] = []
         self.robot: tuple[list, ...] = ([], [], [], [])  # pose, wrench, gripper width, object flag
-        self.fingers = [tuple([] for _ in FINGER_VALUES) for _ in states]
+        self.fingers: list[tuple[list, ...]] = [tuple([] for _ in FINGER_VALUES) for _ in states]
         self._append = [tuple(column.append for column in columns) for columns in self.fingers]
 
     @property

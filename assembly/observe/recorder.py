@@ -41,7 +41,7 @@ from assembly.observe.layout import default_blueprint
 from assembly.observe.scene3d import element_box, plate_boxes, quaternions
 from assembly.observe.tree_graph import tree_graph
 from behaviours.skill_kit import keys
-from drivers.camera_frames import frames_of
+from drivers.camera_frames import LatestFrames, frames_of
 from drivers.cell import Cell
 from perception.state import FINGERS
 
@@ -164,28 +164,29 @@ class RunRecorder:
         columns.add(tick, now, storage[keys.ROBOT_POSE], storage[keys.ROBOT_WRENCH], storage[keys.GRIPPER_WIDTH],
                     storage[keys.GRIPPER_OBJECT], states)
         if self._frames is not None and now + 1e-9 >= self._next_image:  # 1e-9: cell time is a sum of periods
-            self._images(tick, now)
+            self._images(tick, now, self._frames)
         self._tree(tick, now)
         self._task(tick, now, storage)
         if self._events is not None:
-            self._read_events(tick, now)
+            self._read_events(tick, now, self._events)
         if columns.n == columns.capacity or time.perf_counter() - self._sent_at > self.max_wait:
             self.send()
 
     def _calibrated(self, tick: int, now: float, finger: str, markers) -> None:
         """New marker origins (a first or new calibration) for the arrows of `finger`."""
-        if not np.array_equal(self._origins[finger], markers.origin):
+        origin = self._origins[finger]
+        if origin is None or not np.array_equal(origin, markers.origin):
             w, h = markers.image_size
             self._at(tick, now, f"fv/{finger}/markers", rr.Arrows2D.from_fields(origins=markers.origin))
             self._at(tick, now, f"fv/{finger}/markers/frame", rr.Boxes2D(mins=[0, 0], sizes=[w, h]))
             self._origins_logged = True
         self._origins[finger] = markers.origin
 
-    def _images(self, tick: int, now: float) -> None:
+    def _images(self, tick: int, now: float, frames: LatestFrames) -> None:
         """Each finger's newest camera frame as a JPEG under its marker arrows (same pixel axes), kept for
         the batch; encoded by the perception source (pixel mode's workers encode their fingers' frames)."""
         self._next_image = now + self._image_period
-        for finger, (jpeg, _) in self._frames.jpegs(JPEG_QUALITY).items():
+        for finger, (jpeg, _) in frames.jpegs(JPEG_QUALITY).items():
             self._sparse[IMAGES[finger]].add(tick, now, jpeg)
 
     def _tree(self, tick: int, now: float) -> None:
@@ -262,14 +263,14 @@ class RunRecorder:
             [[profile["best_position"], profile["best_load"] * scale]], radii=[0.01], colors=[(220, 50, 47)],
             labels=[f"{element}: best {profile['best_position']:.4f} m, load {profile['best_load']:.2f}"]))
 
-    def _read_events(self, tick: int, now: float) -> None:
+    def _read_events(self, tick: int, now: float, events: Path) -> None:
         """The event log's lines appended since the last tick (the log is append-only, so it is opened
         once it exists and its size found by seeking to its end: a path's stat costs several us a tick,
         the open file's ~2 us, the seek ~0.5 us)."""
         if self._events_fd is None:
-            if not os.access(self._events, os.F_OK):
+            if not os.access(events, os.F_OK):
                 return
-            self._events_fd = os.open(self._events, os.O_RDONLY)
+            self._events_fd = os.open(events, os.O_RDONLY)
         size = os.lseek(self._events_fd, 0, os.SEEK_END)
         if size <= self._events_read:
             return
@@ -286,7 +287,7 @@ class RunRecorder:
     def _event(self, tick: int, now: float, event: dict) -> None:
         kind = event.get("event", "?")
         details = {k: v for k, v in event.items() if k not in ("time", "event", "traceback")}
-        level = END_LEVELS.get(event.get("status"), "WARN") if kind == "end" else EVENT_LEVELS.get(kind, "INFO")
+        level = END_LEVELS.get(event.get("status", ""), "WARN") if kind == "end" else EVENT_LEVELS.get(kind, "INFO")
         self._at(tick, now, "events", rr.TextLog(f"{kind} {json.dumps(details)}", level=level))
         eid = event.get("element")
         if self._design is not None and eid in self._design.elements() and event.get("status"):
@@ -418,7 +419,7 @@ class RunRecorder:
         if not self._finished:
             self._finished = True
             if self._events is not None:
-                self._read_events(self._next_tick, self.cell.clock.now())
+                self._read_events(self._next_tick, self.cell.clock.now(), self._events)
                 if self._events_fd is not None:
                     os.close(self._events_fd)
             self.stream.flush()

@@ -144,7 +144,7 @@ def recording_from_logs(run_dir: Path, out: Path) -> Path:
         stream.log("tree/transitions", rr.TextLog(f"{node}: {record.get('from')} -> {to}"
                                                   + (f" ({feedback})" if feedback else ""),
                                                   level="WARN" if to == "FAILURE" else "INFO"))
-        if node in order:
+        if graph and node in order:  # (order is empty without a graph)
             statuses[order[node]] = to
             stream.log("tree/graph", rr.GraphNodes(graph.paths, colors=graph.colours(statuses)))
     last = transitions[-1] if transitions else {}

@@ -3,7 +3,8 @@ before every tick, and a clean slate before every run."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from typing import Any
 
 import py_trees
 from py_trees.blackboard import Blackboard
@@ -12,7 +13,7 @@ from behaviours.skill_kit import keys
 from drivers.cell import Cell
 
 
-def publish_perception(cell: Cell, states: dict | None = None) -> None:
+def publish_perception(cell: Cell, states: Mapping[str, Any] | None = None) -> None:
     """The perception stage: write this tick's tactile, robot and gripper state and the e-stop.
 
     It is the only writer of these keys, so it stores them directly (py_trees' checked

@@ -79,14 +79,15 @@ def find_run(runs_dir: Path, resume: str, doc: TreeDocument) -> Path:
     this tree under `runs_dir`; checked to be a run of this tree with its files unchanged."""
     if resume != "latest":
         run_dir = Path(resume)
-        if _run_file(run_dir) is None:
-            raise TreeError(f"not a run directory ({RUN_FILE} and {ASBUILT_FILE} are needed)", str(run_dir))
     else:
         runs = sorted(p for p in runs_dir.glob("*") if p.is_dir() and (_run_file(p) or {}).get("tree") == doc.name)
         if not runs:
             raise TreeError(f"no earlier run of {doc.name!r} to resume", str(runs_dir))
         run_dir = runs[-1]
-    recorded, now = _run_file(run_dir), fingerprint(doc)
+    recorded = _run_file(run_dir)
+    if recorded is None:
+        raise TreeError(f"not a run directory ({RUN_FILE} and {ASBUILT_FILE} are needed)", str(run_dir))
+    now = fingerprint(doc)
     if recorded.get("tree") != doc.name:
         raise TreeError(f"this is a run of {recorded.get('tree')!r}, not of {doc.name!r}", str(run_dir / RUN_FILE))
     for key, what in (("tree_sha256", "the tree (or a file it includes)"), ("design_sha256", "the design")):

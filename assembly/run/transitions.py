@@ -6,6 +6,7 @@ import json
 import os
 from operator import attrgetter
 from pathlib import Path
+from typing import TextIO
 
 import py_trees
 from py_trees.common import Status
@@ -26,7 +27,7 @@ class TransitionLog:
         self._last = {path: Status.INVALID for path, _ in self._nodes}
         self._node_objects = [node for _, node in self._nodes]
         self._seen = [Status.INVALID] * len(self._nodes)  # every node's status at the last record
-        self._file = open(path, "a")  # noqa: SIM115 - open for the whole run; close() closes it
+        self._file: TextIO | None = open(path, "a")  # noqa: SIM115 - open for the whole run; close() closes it
 
     def __call__(self, tree: py_trees.trees.BehaviourTree) -> None:
         self.record(tree.count)

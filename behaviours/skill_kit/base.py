@@ -42,11 +42,13 @@ from py_trees.blackboard import Blackboard, Client
 from py_trees.common import Access, Status
 
 from behaviours.skill_kit import keys
+from behaviours.skill_kit.cell import SkillCell
+from perception.state import TactileState
 
 REQUIRED = object()  # sentinel: the parameter has no default
 _TOUCH_KEYS = (keys.FV_LEFT, keys.FV_RIGHT)
 
-_TYPES = {"float": (int, float), "int": (int,), "bool": (bool,), "str": (str,)}
+_TYPES: dict[str, tuple[type[Any], ...]] = {"float": (int, float), "int": (int,), "bool": (bool,), "str": (str,)}
 
 
 @dataclass(frozen=True)
@@ -77,7 +79,7 @@ class Param:
                 raise ValueError(f"expected a list of numbers, got {value!r}")
             if self.length is not None and len(value) != self.length:
                 raise ValueError(f"expected {self.length} numbers, got {len(value)}")
-            out = [self._float(v) for v in value]
+            out: Any = [self._float(v) for v in value]
             items = out
         else:
             ok = _TYPES[self.type]
@@ -151,7 +153,7 @@ class KeyReads:
         return None if Blackboard.activity_stream is not None else self._names.get(key)
 
 
-def require_tick_once(cls: type, tick: Callable, tick_once: Callable) -> None:
+def require_tick_once(cls: type[Any], tick: Callable, tick_once: Callable) -> None:
     """Refuse a class `cls` that overrides the `tick` it inherited but not its `tick_once`: the runner
     ticks with `tick_once`, so such a class would tick one way under the runner, another with visitors."""
     if cls.tick is not tick and cls.tick_once is tick_once:
@@ -173,12 +175,13 @@ class Skill(py_trees.behaviour.Behaviour):
     WRITES: ClassVar[tuple[str, ...]] = ()
     RUNS_UNTIL_HALTED: ClassVar[bool] = False  # True: never ends by itself, its parent halts it
 
+    cell: SkillCell  # from `setup(cell=...)`: unset until then, and a skill ticks only once set up
+
     def __init__(self, name: str, resolved: dict[str, Any] | None = None, **params: Any):
         """`params` are checked and completed with defaults; `resolved` params (from the tree
         loader, which has checked them already) are taken as they are."""
         super().__init__(name=name)
         self.p = SimpleNamespace(**(resolved if resolved is not None else self.resolve_params(params)))
-        self.cell = None
         self.bb = self.attach_blackboard_client(name=name)
         for key in self.READS:
             self.bb.register_key(key=key, access=Access.READ)
@@ -258,7 +261,7 @@ class Skill(py_trees.behaviour.Behaviour):
         """Halted mid-run (RUNNING -> INVALID): stop the arm and the gripper, whatever this
         skill commanded. A skill that had already finished leaves the devices alone, since a
         sibling may be moving them."""
-        if new_status == Status.INVALID and self.status == Status.RUNNING and self.cell is not None:
+        if new_status == Status.INVALID and self.status == Status.RUNNING and hasattr(self, "cell"):
             self.cell.arm.stop()
             self.cell.gripper.stop()
 
@@ -273,7 +276,7 @@ class Skill(py_trees.behaviour.Behaviour):
     def write(self, key: str, value: Any) -> None:
         self.bb.set(key, value, overwrite=True)
 
-    def tactile(self):
+    def tactile(self) -> tuple[TactileState, TactileState]:
         """(left, right) TactileStates of this tick."""
         return self.reads[keys.FV_LEFT], self.reads[keys.FV_RIGHT]
 
@@ -315,7 +318,7 @@ class Skill(py_trees.behaviour.Behaviour):
         return bool(self._state(keys.GRIPPER_MOVING))
 
 
-def summed_force(left, right) -> np.ndarray:
+def summed_force(left: TactileState, right: TactileState) -> np.ndarray:
     """Force felt by the hand: sum of both fingers' force vectors (pixels)."""
     return left.force + right.force
 

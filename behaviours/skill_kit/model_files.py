@@ -12,7 +12,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from perception.learning.models import ModelError, load_model
+from behaviours.skill_kit.base import Skill
+from perception.learning.models import ModelError, TrainedModel, load_model
 
 PROJECT_ROOT = Path(__file__).resolve().parents[2]
 
@@ -34,19 +35,21 @@ def check_model(skill: type, params: dict[str, Any], given: dict[str, Any], tree
     return {**params, "model": str(path)}
 
 
-class UsesModel:
-    """Mixin for a skill with a `model` param naming a model file of kind `MODEL_KIND`: the file is
-    loaded in `setup`, before the first tick, because reading a model (and importing scikit-learn)
-    takes far longer than a tick and a stalled tick trips the arm's watchdog. The tree loader has
-    made the path absolute and checked the file (`check_model`); one that went bad since leaves
-    `model` None and the reason in `model_error`, for the skill to report."""
+class UsesModel(Skill):
+    """A skill (a base beside `ProgramSkill`) with a `model` param naming a model file of kind
+    `MODEL_KIND`: the file is loaded in `setup`, before the first tick, because reading a model (and
+    importing scikit-learn) takes far longer than a tick and a stalled tick trips the arm's watchdog.
+    The tree loader has made the path absolute and checked the file (`check_model`); one that went
+    bad since leaves `model` None and the reason in `model_error`, for the skill to report."""
 
     MODEL_KIND: str
+    model: TrainedModel | None
+    model_error: str  # why `model` is None
 
     def setup(self, **kwargs: Any) -> None:
         super().setup(**kwargs)
         try:
             self.model, self.model_error = load_model(resolve_model_path(self.p.model, PROJECT_ROOT),
-                                                      self.MODEL_KIND), None
+                                                      self.MODEL_KIND), ""
         except ModelError as exc:
             self.model, self.model_error = None, str(exc)

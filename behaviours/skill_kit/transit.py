@@ -141,7 +141,8 @@ def shortest_route(start: tuple, goal: tuple, walls: list[Box]) -> list[tuple] |
     def clear(a, b) -> bool:
         return not any(w.crosses(a, b) for w in walls)
 
-    best, came, queue = {0: 0.0}, {}, [(0.0, 0)]
+    came: dict[int, int] = {}  # node -> the node before it on the best route found
+    best, queue = {0: 0.0}, [(0.0, 0)]
     while queue:
         cost, i = heapq.heappop(queue)
         if i == 1:

@@ -88,21 +88,26 @@ def to_graph(model: DesignModel) -> Graph:
     return graph
 
 
+def _not_a_frame(key: str, name: str, value: Any, source: str) -> TreeError:
+    return TreeError(f"node {key!r}: field {name!r} must be a compas.geometry Frame, got {type(value).__name__}",
+                     source, hint="send the frame, or a 6-list pose")
+
+
 def node_from_graph(key: str, attrs: dict, source: str = "<graph>") -> dict:
     """The node-link node of one Graph node: frames back to poses, display attributes dropped."""
     node: dict[str, Any] = {"id": key}
     for name, value in attrs.items():
         if name in ("box", "x", "y", "z"):
             continue
-        if name in POSE_FIELDS.values() or name == "frame":
+        if name == "frame":
+            if not isinstance(value, Frame):
+                raise _not_a_frame(key, name, value, source)
+            node["origin"] = [round(float(v), DIGITS) + 0.0 for v in value.point]
+        elif name in POSE_FIELDS.values():
             if value is not None and not isinstance(value, Frame):
-                raise TreeError(f"node {key!r}: field {name!r} must be a compas.geometry Frame, got "
-                                f"{type(value).__name__}", source, hint="send the frame, or a 6-list pose")
-            if name == "frame":
-                node["origin"] = [round(float(v), DIGITS) + 0.0 for v in value.point]
-            else:
-                pose_key = next(k for k, f in POSE_FIELDS.items() if f == name)
-                node[pose_key] = None if value is None else frame_to_pose(value)
+                raise _not_a_frame(key, name, value, source)
+            pose_key = next(k for k, f in POSE_FIELDS.items() if f == name)
+            node[pose_key] = None if value is None else frame_to_pose(value)
         elif name == "status" and value in LIVE_STATUSES:
             node[name] = "planned"  # a passing state of a live plan: not built, so planned
         else:

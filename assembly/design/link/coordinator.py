@@ -158,7 +158,7 @@ class Coordinator:
         return {"element": claim.element, "lease": claim.lease, "lease_s": self.lease}
 
     def _own(self, request: dict) -> Claim | None:
-        claim = self.claims.get(request.get("element")) or next(
+        claim = (self.claims.get(request["element"]) if "element" in request else None) or next(
             (c for c in self.claims.values() if c.lease == request["lease"]), None)
         return claim if claim is not None and claim.lease == request["lease"] and claim.cell == request["cell"] else None
 

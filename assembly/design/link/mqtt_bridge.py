@@ -108,6 +108,7 @@ class MqttLink:
                 update = updates.parse(payload)
                 changed += updates.apply(model, update, self.building)
             except updates.Conflict as exc:
+                assert update is not None  # a conflict is found applying an update, after reading it
                 self._report(self.topics.conflicts, {"update": update["update"], "element": exc.element,
                                                      "reason": str(exc)})
             except updates.UpdateError as exc:

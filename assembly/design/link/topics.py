@@ -30,7 +30,7 @@ ROOT = "fvtree"
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
 
 
-def check_name(name: str, what: str) -> str:
+def check_name(name: object, what: str) -> str:
     """A cell or design name fit for one topic level (no '/', '+', '#', spaces)."""
     if not isinstance(name, str) or not _NAME.match(name):
         raise TreeError(f"{what} {name!r} cannot name an MQTT topic level",

@@ -220,7 +220,9 @@ def _profiles(element: str, rec: dict[str, list[dict]], summary: dict, timed: Ti
     for t, stamp, row in timed(rec.get(f"{base}/best", [])):
         tick = row["tick"]
         (best_position, best_y), label = row["Points2D:positions"][0], row["Points2D:labels"][0]
-        best_load = float(BEST_LABEL.search(label).group(1))
+        found = BEST_LABEL.search(label)
+        assert found is not None  # the recorder labels every best point so (RunRecorder._log_profile)
+        best_load = float(found.group(1))
         if isinstance(measured, (int, float)) and round(measured, 2) == best_load:
             best_load = measured
         scale = best_y / best_load if best_load and best_y else -PROFILE_HEIGHT
