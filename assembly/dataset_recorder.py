@@ -5,13 +5,15 @@ The file format is documented in perception/learning/dataset.py."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from py_trees.blackboard import Blackboard
 
 from assembly.run.options import RunOptions
-from assembly.run.session import Run
+from assembly.run.session import Run, world_of
 from behaviours.skill_kit import keys
 from drivers.cell import Cell
 from perception.learning.dataset import Dataset
@@ -22,27 +24,30 @@ def record_run(tree_path: str | Path, cell: str = "sim", seed: int = 0, max_time
                perception: str | None = None) -> Dataset:
     """Run the tree once (simulated perception from contact `signals` or rendered `pixels`, or the
     cell's own) and return its per-tick dataset; RuntimeError if the run fails."""
-    rows, stamps, labels, segments = [], [], [], []
+    rows: list[np.ndarray] = []
+    stamps: list[float] = []
+    labels: list[dict] = []
+    segments: list[int] = []
 
     def trial() -> int:
         """The example the tree marked during the last tick (written after that tick's sensing)."""
         current = Blackboard.storage.get(keys.STIR_TRIAL)
         return current["trial"] if current and current.get("active") else -1
 
-    def sense(the_cell: Cell) -> dict:
+    def sense(the_cell: Cell) -> Mapping[str, Any]:
         if rows:
             segments.append(trial())
         states = the_cell.sense()
         rows.append(tick_features(states["left"], states["right"]))
         stamps.append(the_cell.clock.now())
-        labels.append(the_cell.world.labels())
+        labels.append(world_of(the_cell).labels())
         return states
 
     options = RunOptions(cell=cell, seed=seed, perception=perception, max_time=max_time, runs_dir=None,
                          record=False, plots=False, quiet=True, supervised=False)
     with Run(tree_path, options, sense=sense) as run:
         result = run.loop()
-        world, doc = run.cell.world, run.doc
+        world, doc = world_of(run.cell), run.doc
     segments.append(trial())
     if result.status != "SUCCESS":
         raise RuntimeError(f"the recording run of {tree_path} (seed {seed}) ended {result.status} at "

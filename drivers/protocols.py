@@ -10,7 +10,7 @@ asynchronous: they start a motion and return, and the caller polls state every t
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -147,7 +147,7 @@ class World(Protocol):
         """Ground truth per task object (e.g. per placed element: position against the true
         best one, load, regret) for the run report; empty where the scene has none."""
 
-    TOLERANCES: Mapping[str, float]  # the tolerances `shortfalls` knows, with their defaults
+    TOLERANCES: ClassVar[Mapping[str, float]]  # the tolerances `shortfalls` knows, with their defaults
 
     def shortfalls(self, tolerances: Mapping[str, float]) -> list[str]:
         """From the truth, each way the task was not done (an object dropped, an element placed

@@ -339,7 +339,7 @@ def test_the_gripper_driver_s_own_fault_latches_and_stops_the_fingers():
 
 
 def test_every_cell_builder_puts_the_gripper_behind_the_safety_layer():
-    assert isinstance(mock_cell().gripper.inner, SafeGripper)
+    assert isinstance(mock_cell().gripper, SafeGripper)
     assert isinstance(load_cell("sim", 30.0, "hold").gripper, SafeGripper)
 
 

@@ -41,7 +41,7 @@ def test_stir_cycles_through_the_movements():
 def test_stir_reports_an_arm_fault():
     h = one_skill("{duration: 0.5}")
     h.tick(20)
-    h.arm.inner.trip("protective stop")
+    h.arm.trip("protective stop")
     assert h.run_until_done(100).name == "FAILURE"
     assert "protective stop" in h.feedback("s")
 

@@ -67,7 +67,7 @@ root:
 
 
 @pytest.mark.parametrize("setting, message", [
-    ("{max_regret: -1}", "track.yaml:5: cell.tolerances.max_regret must be a number >= 0, got -1"),
+    ("{max_regret: -1}", "track.yaml:5: cell.tolerances.max_regret: must be at least 0, got -1"),
     ("{max_regret: 0.1}", ("track.yaml:5: cell.tolerances.max_regret: scene 'followme' has no tolerance "
                            "'max_regret' (scene 'followme' has: max_final_error_mm)")),
     ("{max_final_eror_mm: 3}", "did you mean 'max_final_error_mm'?"),

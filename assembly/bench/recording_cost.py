@@ -30,9 +30,8 @@ def one_run(runs_dir: Path, record: bool, max_time: float = 3600.0) -> dict:
         cpu = time.process_time()
         result = run.loop()
         cpu = time.process_time() - cpu
-        run.finish(result)
-    recording = run.run_dir / RECORDING_FILE
-    size = recording.stat().st_size if record else 0
+        summary = run.finish(result)
+    size = (Path(str(summary.run_dir)) / RECORDING_FILE).stat().st_size if record else 0
     return {"recording": record, "status": result.status, "ticks": result.ticks,
             "cell_time_s": result.sim_time, "wall_s": result.wall_time, "cpu_s": cpu,
             "rtf_wall": result.sim_time / result.wall_time, "rtf_cpu": result.sim_time / max(cpu, 1e-9),

@@ -20,7 +20,7 @@ import numpy as np
 from assembly.dataset_recorder import record
 from assembly.language.reader import load_tree
 from assembly.run.options import RunOptions
-from assembly.run.session import Run
+from assembly.run.session import Run, world_of
 from perception.learning.dataset import Dataset
 
 TREES = Path(__file__).resolve().parents[2] / "trees"
@@ -37,7 +37,7 @@ def run_tree_text(text: str, scene_args: dict, seed: int = 0) -> tuple[str, dict
                          plots=False, quiet=True, supervised=False)
     with Run(doc, options) as run:
         result = run.loop()
-    return result.status, run.cell.world.metrics()
+    return result.status, world_of(run.cell).metrics()
 
 
 def followme(rows: list) -> None:

@@ -39,11 +39,12 @@ class TickTimes:
 
     def __init__(self, runner: Runner):
         self.runner = runner
+        self._last_mark = 0.0
         self.parts: dict[str, list[float]] = defaultdict(list)
         self.behaviour_times: dict[str, list[float]] = defaultdict(list)
         for path, node in runner.tree.nodes.items():
             if not node.children:  # leaves: skills and conditions
-                node.update = _timed(node.update, self.behaviour_times[path])
+                node.update = _timed(node.update, self.behaviour_times[path])  # type: ignore[method-assign]
         tree = runner.behaviour_tree
         # Parts in tick order: the marks time the tree tick (between the pre- and post-tick
         # handlers) and the cell step (after the post-tick handlers).
@@ -54,9 +55,8 @@ class TickTimes:
         tree.pre_tick_handlers[:] = [*pre, self._mark]
         tree.post_tick_handlers[:] = [lambda _: tree_tick.append(time.perf_counter() - self._last_mark),
                                       *post, self._mark]
-        self._last_mark = 0.0
         self._tick = runner.tick
-        runner.tick = self._timed_tick  # the loop calls the instance's tick
+        runner.tick = self._timed_tick  # type: ignore[method-assign]  # the loop calls the instance's tick
 
     def stage_name(self, handler) -> str:
         """A tick handler's stage: the runner's attribute holding it or the object it is a method
@@ -207,7 +207,8 @@ def run(out_dir: Path, quick: bool = False) -> list[Path]:
 
 def _measure(out_dir: Path, quick: bool) -> Measured:
     repeats = 1 if quick else 5
-    factors, regrets = [], {0.02: [], 0.05: []}
+    factors: list[float] = []
+    regrets: dict[float, list[float]] = {0.02: [], 0.05: []}
     noisy = _cell_variant(out_dir, "noise_0.05", {"world": {"force_noise": 0.05}})
     for seed in range(repeats):  # untimed runs: real-time factor without instrumentation overhead
         _, _, result, regret = _one_run(timed=False, seed=seed)

@@ -17,7 +17,7 @@ from assembly.language.validator import NodeSpec, Scope, SubtreeDef, Validator, 
 from behaviours.skill_kit.keys import PERCEPTION_KEYS
 from fileio.errors import FvtreeError, did_you_mean
 from fileio.schema_check import schema_problem
-from fileio.yaml_source import Located, load_file, load_text
+from fileio.yaml_source import Located, LocatedList, load_file, load_text
 
 
 @dataclass
@@ -101,7 +101,7 @@ def _collect_subtrees(doc: Located, file: str, out: dict[str, SubtreeDef], error
     """Subtrees of this file and, recursively, of its includes (their fields are checked with the
     top level: here the include cycles, the subtrees defined twice and the param declarations)."""
     base = Path(file).parent
-    includes = (doc["include"] or []) if _fits(doc, "include") else []
+    includes: LocatedList = (doc["include"] or LocatedList()) if _fits(doc, "include") else LocatedList()
     for i, rel in enumerate(includes):
         line = includes.item_lines[i]
         target = str((base / rel).resolve())
@@ -116,7 +116,7 @@ def _collect_subtrees(doc: Located, file: str, out: dict[str, SubtreeDef], error
             continue
         if _top_level(sub, str(base / rel), errors, tree_file=False):
             _collect_subtrees(sub, str(base / rel), out, errors, seen_files + (target,))
-    subtrees = (doc["subtrees"] or {}) if _fits(doc, "subtrees") else {}
+    subtrees: Located = (doc["subtrees"] or Located()) if _fits(doc, "subtrees") else Located()
     for name, body in subtrees.items():
         if not isinstance(body, Located) or "root" not in body:
             continue  # reported with the fields
@@ -132,7 +132,7 @@ def _collect_subtrees(doc: Located, file: str, out: dict[str, SubtreeDef], error
 def _cell_settings(doc: Located, file: str, errors: list[TreeError]) -> tuple[float, str]:
     """The tree's tick rate and simulated scene (their values are checked with the fields; here
     that the simulator knows the scene)."""
-    cell = doc.get("cell") if isinstance(doc.get("cell"), Located) else {}
+    cell = doc["cell"] if isinstance(doc.get("cell"), Located) else Located()
     scene = cell.get("scene", CELL_FIELDS["scene"].schema["default"])
     if isinstance(scene, str) and scene not in _scenes():
         errors.append(TreeError(f"no simulated scene {scene!r}", file, cell.line_of("scene"), "cell.scene",
@@ -171,7 +171,7 @@ def load_tree(path: str | Path | None = None, text: str | None = None, name: str
     load_plugins()
     file = str(path) if path is not None else name
     try:
-        doc = load_file(path) if text is None else load_text(text, file)
+        doc = load_text(text, file) if text is not None else load_file(file)
     except FvtreeError as exc:
         raise TreeErrors([exc]) from None
     errors: list[TreeError] = []
@@ -189,7 +189,7 @@ def load_tree(path: str | Path | None = None, text: str | None = None, name: str
         errors.extend(validator.errors)
         if dataflow and not validator.errors and root is not None:
             errors.extend(dataflow_errors(root, NODE_KINDS, PERCEPTION_KEYS))
-    if errors:
+    if errors or root is None:  # no root without an error saying why
         raise TreeErrors(errors)
     tolerances = (doc.get("cell") or {}).get("tolerances") or Located()
     return TreeDocument(file, str(doc["name"]), float(tick_hz), scene, design, root, subtrees, tolerances)

@@ -105,7 +105,7 @@ def _calibrate(pipeline: FingerVision, camera: OpenCvCamera, source: str, marker
     """Calibrate the pipeline on the camera's first frames and save the marker map at `marker_map`
     (FvtreeError, naming `source`, if the camera gives too few frames)."""
     needed = pipeline.config.calibration.n_frames
-    calibration = []
+    calibration: list[np.ndarray] = []
     while len(calibration) < needed:
         got = _grab(camera, timeout)
         if got is None:

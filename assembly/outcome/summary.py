@@ -87,16 +87,10 @@ def summarize(result: RunResult, cell: Cell, design: DesignModel | None,
     world = cell.world
     truth = world.truth() if world is not None else {}
     kept = kept or {}
-    elements = {}
-    for eid in (design.build_order() if design else []):
-        if eid in kept:
-            elements[eid] = kept[eid]
-            continue
-        node = design.graph.nodes[eid]
-        entry = {"status": node.get("status", "planned"), "measured_load_px": node.get("measured_load"),
-                 "asbuilt_pose": node.get("asbuilt_pose")}
-        entry.update((k, v) for k, v in truth.get(eid, {}).items() if k != CURVE)
-        elements[eid] = entry
+    elements: dict[str, dict[str, Any]] = {}
+    if design is not None:
+        for eid in design.build_order():
+            elements[eid] = kept[eid] if eid in kept else _element(design, eid, truth.get(eid, {}))
     return Summary(
         status=result.status, message=result.message, where=result.where,
         metrics=world.metrics() if world is not None else {},
@@ -104,6 +98,15 @@ def summarize(result: RunResult, cell: Cell, design: DesignModel | None,
         real_time_factor=round(result.real_time_factor, 1),
         safety_clamps=cell.arm.clamped, arm_fault=cell.arm.fault(), gripper_fault=cell.gripper.fault(),
         elements=elements, traceback=result.traceback)
+
+
+def _element(design: DesignModel, eid: str, truth: dict[str, Any]) -> dict[str, Any]:
+    """An element's status, as-built pose and measured load, with the world's truth about it."""
+    node = design.graph.nodes[eid]
+    entry = {"status": node.get("status", "planned"), "measured_load_px": node.get("measured_load"),
+             "asbuilt_pose": node.get("asbuilt_pose")}
+    entry.update((k, v) for k, v in truth.items() if k != CURVE)
+    return entry
 
 
 def format_summary(summary: Summary) -> str:

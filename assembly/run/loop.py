@@ -33,6 +33,7 @@ from assembly.run.supervisor import Supervision, Supervisor
 from assembly.run.tip import Tip
 from assembly.run.transitions import TransitionLog
 from drivers.cell import Cell
+from drivers.protocols import PerceptionSource
 
 
 class BehaviourTree(py_trees.trees.BehaviourTree):
@@ -79,7 +80,7 @@ class Runner:
     def __init__(self, tree: BuiltTree, cell: Cell, run_dir: Path | None = None,
                  bridge: DesignBridge | None = None, realtime: bool = False,
                  progress: Callable[[str], None] | None = None,
-                 sense: Callable[[], dict] | None = None,
+                 sense: PerceptionSource | None = None,
                  estop_at: float | None = None, max_time: float = 3600.0,
                  supervision: Supervision | None = None, recorder: Recorder | None = None):
         self.tree = tree

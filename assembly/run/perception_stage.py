@@ -3,7 +3,7 @@ before every tick, and a clean slate before every run."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from typing import Any
 
 import py_trees
@@ -11,6 +11,7 @@ from py_trees.blackboard import Blackboard
 
 from behaviours.skill_kit import keys
 from drivers.cell import Cell
+from drivers.protocols import PerceptionSource
 
 
 def publish_perception(cell: Cell, states: Mapping[str, Any] | None = None) -> None:
@@ -40,7 +41,7 @@ def publish_perception(cell: Cell, states: Mapping[str, Any] | None = None) -> N
 class PerceptionStage:
     """Pre-tick handler: publish the perception of `sense` (the cell's own by default)."""
 
-    def __init__(self, cell: Cell, sense: Callable[[], dict] | None = None):
+    def __init__(self, cell: Cell, sense: PerceptionSource | None = None):
         self.cell = cell
         self.sense = sense or cell.sense
 

@@ -12,11 +12,12 @@ from __future__ import annotations
 import gc
 import json
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from py_trees.common import Status
@@ -41,11 +42,13 @@ from assembly.run.supervisor import Supervision
 from assembly.signals import sigterm_raises_terminated
 from drivers.cell import Cell
 from drivers.cell_builders import load_cell
+from drivers.protocols import World
+from fileio.errors import FvtreeError
 
 if TYPE_CHECKING:
     from typing_extensions import Self  # typing.Self from Python 3.11
 
-Sense = Callable[[Cell], dict]  # this tick's perception of a cell (default: `cell.sense()`)
+Sense = Callable[[Cell], Mapping[str, Any]]  # this tick's perception of a cell (default: `cell.sense()`)
 
 
 class Run:
@@ -59,23 +62,35 @@ class Run:
     def __init__(self, tree: str | Path | TreeDocument, options: RunOptions | None = None, *,
                  cell: Cell | None = None, sense: Sense | None = None):
         self.options = options or RunOptions()
-        self.source = tree
+        self.doc, self.substituted = self._document(tree)  # a tree file is read and checked whole here
+        self._check_options()
         self.given_cell = cell
         self.sense = sense
-        self.doc: TreeDocument | None = None
-        self.substituted: list[dict] = []
         self.run_dir: Path | None = None
         self.bridge: DesignBridge | None = None
-        self.cell: Cell | None = None
-        self.tree: BuiltTree | None = None
-        self.recorder: RunRecorder | None = None
-        self.runner: Runner | None = None
         self.tolerances: dict[str, float] = {}
         self.nothing_to_do: Summary | None = None  # a resumed run with every element placed
+        self._parts: _Parts | None = None
         self._before: dict = {}  # the summary an earlier session of a resumed run wrote
         self._placed_before: list[str] = []
         self._cell_closed = False
         self._finished = False
+
+    @property
+    def cell(self) -> Cell:
+        return self._opened().cell
+
+    @property
+    def tree(self) -> BuiltTree:
+        return self._opened().tree
+
+    @property
+    def runner(self) -> Runner:
+        return self._opened().runner
+
+    @property
+    def recorder(self) -> RunRecorder | None:
+        return self._parts.recorder if self._parts is not None else None
 
     # ---- opening ---------------------------------------------------------------------------
     def __enter__(self) -> Self:
@@ -87,30 +102,31 @@ class Run:
         self.close()
 
     def open(self) -> Run:
-        """Load the tree, prepare the run directory and design bridge, build the cell, the tree,
-        the recorder and the tick loop, and set every node up. A cell built here is closed again
-        if a later step fails."""
-        self.doc = self._document()
-        self._check_options()
+        """Prepare the run directory and design bridge, build the cell, the tree, the recorder and
+        the tick loop, and set every node up. A cell built here is closed again if a later step
+        fails."""
         clear_blackboard()
         if not self._prepare_run_dir():
             return self
         design = self.design
         self._placed_before = [e for e in design.build_order() if design.is_placed(e)] if design else []
-        self.cell = self.given_cell or self._load_cell()
+        cell = self.given_cell or self._load_cell()
         try:
-            self._build()
+            self._parts = self._build(cell)
+            self.runner.setup()
         except BaseException:
+            self._cell_closed = True
+            cell.close()
             self.close()
             raise
         return self
 
-    def _document(self) -> TreeDocument:
-        doc = self.source if isinstance(self.source, TreeDocument) else load_tree(self.source)
+    def _document(self, tree: str | Path | TreeDocument) -> tuple[TreeDocument, list[dict]]:
+        """The validated tree with the options' scene and test doubles, and the doubles put in."""
+        doc = tree if isinstance(tree, TreeDocument) else load_tree(tree)
         if self.options.scene is not None:
             doc = with_scene(doc, self.options.scene)
-        doc, self.substituted = substitute(doc, list(self.options.substitutions))
-        return doc
+        return substitute(doc, list(self.options.substitutions))
 
     def _check_options(self) -> None:
         """Options that only make sense together, checked before anything is created."""
@@ -159,43 +175,48 @@ class Run:
         scene_args = {**(doc.design.scene_args() if doc.design is not None else {}), **o.scene_args}
         return load_cell(o.cell, doc.tick_hz, doc.scene, scene_args, seed=o.seed, perception=o.perception)
 
-    def _build(self) -> None:
-        o, cell = self.options, self.cell
+    def _build(self, cell: Cell) -> _Parts:
+        o = self.options
         supervision = Supervision.of_cell(o.cell) if o.supervised else None
+        design = self.design
         if cell.world is not None:
             self.tolerances = tolerances_for(self.doc, cell.world)
-            for eid in self._placed_before:  # on resume in simulation, stand what is placed already
-                cell.world.stand(eid, np.array(self.design.graph.nodes[eid]["asbuilt_pose"], float))
-        self.tree = build(self.doc)
-        if (o.record and self.run_dir is not None) or o.live:
-            self.recorder = run_recorder(self.tree, cell, self.run_dir, self.design, o.record and self.run_dir
-                                         is not None, o.live, o.record_images)
-        sense = (lambda: self.sense(cell)) if self.sense is not None else None
-        self.runner = Runner(self.tree, cell, self.run_dir, self.bridge, realtime=o.realtime,
-                             progress=None if o.quiet else stderr_progress, sense=sense, estop_at=o.estop_at,
-                             max_time=o.max_time, supervision=supervision, recorder=self.recorder)
+            if design is not None:  # on resume in simulation, what is placed already stands
+                for eid in self._placed_before:
+                    cell.world.stand(eid, np.array(design.graph.nodes[eid]["asbuilt_pose"], float))
+        tree = build(self.doc)
+        recorder = None  # the recording and its live view follow the run directory's event log
+        if self.run_dir is not None and (o.record or o.live):
+            recorder = run_recorder(tree, cell, self.run_dir, design, o.record, o.live, o.record_images)
+        sense, given = None, self.sense
+        if given is not None:
+            def sense() -> Mapping[str, Any]:
+                return given(cell)
+        runner = Runner(tree, cell, self.run_dir, self.bridge, realtime=o.realtime,
+                        progress=None if o.quiet else stderr_progress, sense=sense, estop_at=o.estop_at,
+                        max_time=o.max_time, supervision=supervision, recorder=recorder)
         if self.bridge is not None:
             self.bridge.event("start", tree=str(self.doc.path), cell=o.cell, seed=o.seed, resume=bool(o.resume))
-        self.runner.setup()
+        return _Parts(cell, tree, recorder, runner)
 
     # ---- running ---------------------------------------------------------------------------
     @property
     def ticks(self) -> int:
         """Ticks done so far."""
-        return self.runner.ticks if self.runner is not None else 0
+        return self._parts.runner.ticks if self._parts is not None else 0
 
     def tick(self) -> Status:
         """One tick of the tree and one period of the cell; the root's status."""
-        return self._opened().tick()
+        return self.runner.tick()
 
     def halt(self) -> None:
         """What Ctrl-C does: stop every running node, the arm and the gripper."""
-        self._opened().halt()
+        self.runner.halt()
 
     def loop(self) -> RunResult:
         """Tick until the tree ends or the run is stopped (the runner's fail-safe loop), with the
         heap frozen out of the garbage collector's view."""
-        runner = self._opened()
+        runner = self.runner
         with _frozen_heap():
             return runner.run()
 
@@ -214,7 +235,7 @@ class Run:
         if cell.world is not None:
             summary.apply(judge(cell.world, self.tolerances))
         if self.run_dir is not None:
-            self._write(summary, result)
+            self._write(summary, result, self.run_dir)
         self._log_end(summary, result)
         if not o.quiet:
             self._print(summary)
@@ -228,20 +249,20 @@ class Run:
             return self.nothing_to_do
         return self.finish(self.loop())
 
-    def _opened(self) -> Runner:
-        if self.runner is None:
+    def _opened(self) -> _Parts:
+        if self._parts is None:
             raise RuntimeError("open the Run before ticking it" if self.nothing_to_do is None
                                else "a resumed run with every element placed has nothing to tick")
-        return self.runner
+        return self._parts
 
     # ---- after the last tick -----------------------------------------------------------------
-    def _write(self, summary: Summary, result: RunResult) -> None:
+    def _write(self, summary: Summary, result: RunResult, run_dir: Path) -> None:
         """Chart and summary file; a run directory that cannot be written loses them, not the run."""
         try:
             if self.options.plots:
-                png = plot_profiles(result.profiles, self.cell.world, self.run_dir / "load_profiles.png")
+                png = plot_profiles(result.profiles, self.cell.world, run_dir / "load_profiles.png")
                 summary.plot = str(png) if png else None
-            summary.write(self.run_dir)
+            summary.write(run_dir)
         except OSError as exc:
             print(f"cannot write the summary to {self.run_dir} ({exc.strerror or exc})", file=sys.stderr)
 
@@ -265,9 +286,9 @@ class Run:
     # ---- closing ---------------------------------------------------------------------------
     def close_cell(self) -> None:
         """Stop and close the cell (its devices, simulator workers, cameras), once."""
-        if self.cell is not None and not self._cell_closed:
+        if self._parts is not None and not self._cell_closed:
             self._cell_closed = True
-            self.cell.close()
+            self._parts.cell.close()
 
     def close(self) -> None:
         """Close the cell and, for a run left unfinished, the design bridge's links and the recorder."""
@@ -278,6 +299,23 @@ class Run:
                 self.bridge.close()
             if self.recorder is not None:
                 self.recorder.finish()
+
+
+def world_of(cell: Cell) -> World:
+    """The simulated scene of `cell`; what asks for it (labels, truth, metrics) needs a simulated cell."""
+    if cell.world is None:
+        raise FvtreeError(f"cell {cell.name!r} simulates no scene, and this needs one", hint="use --cell sim")
+    return cell.world
+
+
+@dataclass(frozen=True)
+class _Parts:
+    """What an opened run is made of."""
+
+    cell: Cell
+    tree: BuiltTree
+    recorder: RunRecorder | None
+    runner: Runner
 
 
 @sigterm_raises_terminated()  # from the start: SIGTERM while the cell is set up closes it like Ctrl-C

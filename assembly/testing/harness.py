@@ -37,6 +37,7 @@ from assembly.run.options import RunOptions
 from assembly.run.session import Run
 from drivers.cell import Cell
 from drivers.clock import SimClock
+from drivers.protocols import Arm, Gripper
 from drivers.safe_gripper import SafeGripper
 from drivers.safety import SafeArm, SafetyLimits
 from drivers.sim.devices.arm import KinematicArm
@@ -75,38 +76,47 @@ class Command:
     args: tuple
 
 
-class _Recorder:
-    """Wraps a device and records every command sent to it with the cell time."""
+class RecordingArm(SafeArm):
+    """The safety layer's arm that also records every command sent to it with the cell time."""
 
-    COMMANDS: tuple[str, ...] = ()
-
-    def __init__(self, inner, clock):
-        self.inner, self.clock = inner, clock
+    def __init__(self, arm: Arm, limits: SafetyLimits, clock: SimClock):
+        super().__init__(arm, limits, clock)
         self.commands: list[Command] = []
 
-    def __getattr__(self, name):
-        attr = getattr(self.inner, name)
-        if name in self.COMMANDS:
-            def record(*args, **kwargs):
-                self.commands.append(Command(self.clock.now(), name, args + tuple(kwargs.values())))
-                return attr(*args, **kwargs)
-            return record
-        return attr
+    def move_linear(self, pose: np.ndarray, speed: float) -> None:
+        self.commands.append(Command(self.clock.now(), "move_linear", (pose, speed)))
+        super().move_linear(pose, speed)
+
+    def speed_linear(self, twist: np.ndarray) -> None:
+        self.commands.append(Command(self.clock.now(), "speed_linear", (twist,)))
+        super().speed_linear(twist)
+
+    def stop(self) -> None:
+        self.commands.append(Command(self.clock.now(), "stop", ()))
+        super().stop()
 
     def commands_named(self, name: str) -> list[Command]:
         return [c for c in self.commands if c.name == name]
 
 
-class RecordingArm(_Recorder):
-    COMMANDS = ("move_linear", "speed_linear", "stop")
+class RecordingGripper(SafeGripper):
+    """The safety layer's gripper that also records every command sent to it with the cell time."""
 
+    def __init__(self, gripper: Gripper, clock: SimClock):
+        super().__init__(gripper)
+        self.clock = clock
+        self.commands: list[Command] = []
 
-class RecordingGripper(_Recorder):
-    COMMANDS = ("move", "stop")
+    def move(self, width: float, speed: float = 0.05, force: float = 20.0) -> None:
+        self.commands.append(Command(self.clock.now(), "move", (width, speed, force)))
+        super().move(width, speed, force)
 
-    @property
-    def max_width(self):
-        return self.inner.max_width
+    def stop(self) -> None:
+        self.commands.append(Command(self.clock.now(), "stop", ()))
+        super().stop()
+
+    def commands_named(self, name: str) -> list[Command]:
+        return [c for c in self.commands if c.name == name]
 
 
 class _MockWorld(Scene):
@@ -131,8 +141,8 @@ def mock_cell(tick_hz: float = 30.0, home=HOME, gripper_width: float = 0.085,
     raw_arm = KinematicArm(clock, home)
     raw_gripper = SimGripper(width=gripper_width, gel_stiffness=5000.0)
     raw_gripper.object_width = object_width
-    arm = RecordingArm(SafeArm(raw_arm, limits or SafetyLimits(), clock), clock)
-    gripper = RecordingGripper(SafeGripper(raw_gripper), clock)
+    arm = RecordingArm(raw_arm, limits or SafetyLimits(), clock)
+    gripper = RecordingGripper(raw_gripper, clock)
     empty = {f: touch(f) for f in FINGERS}
     return Cell("mock", arm, gripper, clock, lambda: empty, world=_MockWorld(raw_arm, raw_gripper))
 
@@ -226,11 +236,13 @@ class TreeHarness:
 
     # ---- inspection ------------------------------------------------------------------------
     @property
-    def arm(self) -> RecordingArm:
+    def arm(self) -> SafeArm:
+        """The cell's arm: on a mocked cell a `RecordingArm`, which records every command."""
         return self.cell.arm
 
     @property
-    def gripper(self) -> RecordingGripper:
+    def gripper(self) -> SafeGripper:
+        """The cell's gripper: on a mocked cell a `RecordingGripper`, which records every command."""
         return self.cell.gripper
 
     def node(self, path: str):

@@ -44,7 +44,7 @@ import json
 import sys
 import traceback
 import zlib
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import cache
@@ -59,10 +59,13 @@ from assembly.language.plugins import load_plugins
 from assembly.language.reader import load_tree
 from assembly.language.schema import tree_schema
 from assembly.language.validator import known_blackboard_keys
-from assembly.testing.harness import Script, TreeHarness, mock_cell, touch
+from assembly.testing.harness import Command, RecordingArm, RecordingGripper, Script, TreeHarness, mock_cell, touch
 from behaviours.skill_kit import keys
 from behaviours.skill_kit.base import Param, Skill
 from behaviours.skill_kit.registry import SKILL_PACKAGES, SKILLS
+from drivers.safe_gripper import SafeGripper
+from drivers.safety import SafeArm
+from fileio.errors import FvtreeError
 
 if TYPE_CHECKING:
     import pytest
@@ -83,7 +86,7 @@ PLATES = {"P1": {"kind": "plate", "origin": [-0.55, 0.30, 0.46], "span": 1.0, "w
 
 # Ways of holding an object that the fingertips can feel (the torque twists the hand about the
 # closing axis, so it has opposite signs on the two pads); the scripts replay them.
-FELT = {
+FELT: dict[str, dict[str, Any]] = {
     "held": {"normal": 5.0, "area": 0.3},
     "pressed": {"normal": 15.0, "shear": (2.0, 1.0), "area": 0.3},
     "slipping": {"normal": 5.0, "area": 0.3, "slip": 0.1},
@@ -257,18 +260,25 @@ def invalid_values_refused(cls: type[Skill], params: Params) -> None:
             except ValueError as exc:
                 if repr(key) not in str(exc):
                     problems.append(f"{key} {what}: the message does not name the param: {exc}")
+            errors: Sequence[FvtreeError] = []
             try:
                 with _in_the_skill_table(cls):
                     load_tree(text=tree_text(cls.NAME, given), name=TREE_FILE)
-                errors = []
             except TreeErrors as caught:
                 errors = caught.errors
-            if not any(e.file == TREE_FILE and e.line == SKILL_LINE and e.path == SKILL_PATH and repr(key) in e.message
+            if not any(e.file == TREE_FILE and e.line == SKILL_LINE and e.field == SKILL_PATH and repr(key) in e.message
                        for e in errors):
                 found = "; ".join(map(str, errors)) or "the tree loaded"
                 problems.append(f"{key} {what}: no error located at {TREE_FILE}:{SKILL_LINE} {SKILL_PATH}: {found}")
     _require(problems, "declare each param's type, length, min, max and choices in its Param; a value "
                        "validate() refuses raises ValueError naming the param (\"param 'x': ...\")")
+
+
+def _recorded(device: SafeArm | SafeGripper) -> list[Command]:
+    """The commands a mocked cell's device recorded."""
+    if not isinstance(device, RecordingArm | RecordingGripper):
+        raise TypeError("the checks run on a mocked cell, whose arm and gripper record their commands")
+    return device.commands
 
 
 def halting_stops_the_devices(cls: type[Skill], params: Params) -> None:
@@ -283,7 +293,7 @@ def halting_stops_the_devices(cls: type[Skill], params: Params) -> None:
             raise ContractBroken(f"it ended ({h.status(SKILL_PATH)}: {h.feedback(SKILL_PATH)!r}) before "
                                  "commanding anything, so halting it could not be checked",
                                  "keep running while the arm or the gripper moves under a slipping grasp")
-        if h.arm.commands or h.gripper.commands:
+        if _recorded(h.arm) or _recorded(h.gripper):
             break
     else:
         raise ContractBroken(f"it commanded nothing in {HALT_WITHIN} ticks",
@@ -295,7 +305,7 @@ def halting_stops_the_devices(cls: type[Skill], params: Params) -> None:
     moving = [name for name, device in (("arm", h.arm), ("gripper", h.gripper)) if device.is_moving()]
     if moving:
         problems.append(f"halted, the {' and the '.join(moving)} {'are' if len(moving) > 1 else 'is'} still moving")
-    last = {name: [c.name for c in device.commands[-1:]] for name, device in (("arm", h.arm), ("gripper", h.gripper))}
+    last = {name: [c.name for c in _recorded(device)[-1:]] for name, device in (("arm", h.arm), ("gripper", h.gripper))}
     if last != {"arm": ["stop"], "gripper": ["stop"]}:
         problems.append(f"the last commands are {last}, not stops")
     _require(problems, "leave halting to Skill.terminate (it stops the arm and the gripper); an override "
@@ -340,6 +350,8 @@ def reads_no_device_state(cls: type[Skill], params: Params) -> None:
     skills of that tick see; the snapshot helpers (`self.pose()`, ...) are the way."""
     module = sys.modules.get(cls.__module__)
     try:
+        if module is None:
+            raise TypeError("it is not imported")
         source, where = inspect.getsource(module), inspect.getsourcefile(module)
     except (OSError, TypeError) as exc:
         raise ContractBroken(f"the source of its module {cls.__module__} cannot be read ({exc})",

@@ -8,7 +8,9 @@ targets. Timings are per-frame medians (best of three passes) on one core (`cv2.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -26,6 +28,7 @@ from assembly.bench.perception.metrics import (
 )
 from assembly.bench.perception.scenes import Bench, StressBench, blur_sigma
 from drivers.sim.models.synthetic_camera import Appearance
+from perception.calibration import MarkerMap
 from perception.config import FingerVisionConfig, load_config
 from perception.fingervision import FingerVision
 from perception.frames import read_clip
@@ -34,8 +37,8 @@ from perception.slip import make_motion, object_slip
 
 REAL_CLIP = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "fv_demo" / "cam1_0002.m4v"
 NOISE = Appearance(noise=4.0)
-MARKERS_ONLY = {"proximity.enabled": False}
-FILTERS = {
+MARKERS_ONLY: dict[str, Any] = {"proximity.enabled": False}
+FILTERS: dict[str, dict[str, Any]] = {
     "none": {"kalman.enabled": False},
     "thesis": {"kalman.enabled": True, "kalman.process_noise": 0.01, "kalman.reinit_gate": 0.0,
                "kalman.motion_gate": 0.0},
@@ -43,7 +46,7 @@ FILTERS = {
               "kalman.motion_gate": 20.0},
 }
 COMBOS = [("roi", "blob"), ("roi", "cc"), ("assign", "blob"), ("assign", "cc"), ("window", "-")]
-SWEEP_METHODS = {
+SWEEP_METHODS: dict[str, tuple[str, dict[str, Any]]] = {
     "original (roi/blob)": ("original", {}),
     "assign/cc": ("original", {"tracker.kind": "assign", "detector.kind": "cc"}),
     "window": ("fast", FILTERS["none"]),
@@ -74,6 +77,13 @@ def calibrated(config: FingerVisionConfig, frames) -> FingerVision:
     return fv
 
 
+def mapped(fv: FingerVision) -> MarkerMap:
+    """The marker map of a calibrated pipeline."""
+    if fv.marker_map is None:
+        raise RuntimeError("the pipeline is not calibrated")
+    return fv.marker_map
+
+
 def bench_accuracy_speed(quick: bool) -> list[dict]:
     """(a) Every detector/tracker/filter combination on a press-hold-release at noise sigma 4, and at
     two failure points: a 20 px shear and a textured object over 40 % of the skin."""
@@ -91,7 +101,7 @@ def bench_accuracy_speed(quick: bool) -> list[dict]:
             strained = score(calibrated(fv.config, shear.calibration), shear.frames, shear.origin)
             covered = score(calibrated(fv.config, textured.calibration), textured.frames, textured.origin)
             rows.append({"tracker": tracker, "detector": detector, "filter": filt,
-                         "markers": len(fv.marker_map), "ms_per_frame": ms, "fps": 1000 / ms,
+                         "markers": len(mapped(fv)), "ms_per_frame": ms, "fps": 1000 / ms,
                          "rms_px": result.rms, "tracked": result.tracked, "unflagged_swaps": result.swaps,
                          "shear20_rms_px": strained.rms, "shear20_tracked": strained.tracked,
                          "textured40_off_1px": covered.off, "textured40_tracked": covered.tracked})
@@ -126,7 +136,7 @@ def bench_kalman(quick: bool) -> list[dict]:
     mean_x = {}
     for filt in FILTERS:
         fv = calibrated(combo_config("window", "-", filt), seq.calibration)
-        idx = np.linalg.norm(fv.marker_map.origin[:, None] - seq.origin[None], axis=2).argmin(axis=1)
+        idx = np.linalg.norm(mapped(fv).origin[:, None] - seq.origin[None], axis=2).argmin(axis=1)
         states, _ = run_sequence(fv, seq.frames)
         mean_x[filt] = np.stack([s.markers.position[:, 0] for s in states])
         matched_truth = truth[:, idx]
@@ -148,6 +158,8 @@ def slip_scores(method: str, seed: int, n: int, look: Appearance) -> tuple[np.nd
     for sample in bench.object_samples():
         prox.add_object(sample.image, sample.truth.object_mask)
     motion = make_motion(cfg.slip)
+    if motion is None:
+        raise ValueError(f"slip method {method!r} measures no motion")
     frames = [prox.prepare(im) for im in images]
     wide = [prox.object_masks(f)[1] for f in frames]
     slips = []
@@ -179,7 +191,7 @@ def bench_slip(quick: bool) -> list[dict]:
     return rows
 
 
-SWEEPS = {
+SWEEPS: dict[str, tuple[list[float], Callable[[float], Appearance] | None]] = {
     "noise": ([0, 2, 4, 8, 12, 16, 24], lambda v: Appearance(noise=v)),
     "lighting_gain": ([0.3, 0.5, 0.7, 1.0, 1.3, 1.6, 2.0], lambda v: Appearance(noise=2.0, gain=v)),
     "blur": ([0, 0.5, 1.0, 1.5, 2.0, 3.0], lambda v: Appearance(noise=2.0, blur=v)),
@@ -210,13 +222,13 @@ def bench_sweeps(quick: bool) -> list[dict]:
     return rows
 
 
-STRESS = {  # factor: (values, StressBench kwargs and strain of one value)
+STRESS: dict[str, tuple[list[float], Callable[[float], tuple[dict, dict]]]] = {  # factor: (values, StressBench kwargs and strain of one value)
     "shear_px": ([0, 5, 10, 15, 20, 25], lambda v: ({}, {"shear_px": v})),
     "torsion_px": ([0, 5, 10, 15, 20], lambda v: ({}, {"twist_px": v})),
     "textured_share": ([0.1, 0.2, 0.3, 0.4], lambda v: ({"pattern": "qr", "share": v}, {"shear_px": 4})),
     "dark_share": ([0.1, 0.2, 0.3, 0.4], lambda v: ({"pattern": "dark", "share": v}, {"shear_px": 4})),
 }
-STRESS_LOOKS = {  # factor: (values, appearance of one value), on a 4 px shear
+STRESS_LOOKS: dict[str, tuple[list[float], Callable[[float], Appearance]]] = {  # factor: (values, appearance of one value), on a 4 px shear
     "gain_bright_background": ([1.0, 1.5, 2.0, 2.5, 3.0], lambda v: Appearance(noise=2.0, gain=v)),
     "blur_kernel_px": ([0, 5, 9, 15], lambda v: Appearance(noise=2.0, blur=blur_sigma(v))),
     "noise_sigma": ([1, 4, 8, 16, 24], lambda v: Appearance(noise=v)),  # 0 would freeze the held frames
@@ -245,7 +257,7 @@ def bench_stress(quick: bool) -> list[dict]:
             fv = calibrated(config, seq.calibration)
             r = score(fv, seq.frames, seq.origin)
             broken = not r.rms <= BROKEN_RMS or r.tracked < 0.5 or r.swaps > 0 or r.off > BROKEN_OFF
-            rows.append({"factor": factor, "value": value, "method": method, "markers": len(fv.marker_map),
+            rows.append({"factor": factor, "value": value, "method": method, "markers": len(mapped(fv)),
                          "true_markers": len(seq.origin), "rms_px": r.rms, "tracked": r.tracked,
                          "off_1px": r.off, "unflagged_swaps": r.swaps, "broken": broken})
     return rows
@@ -264,7 +276,7 @@ def bench_calibration(quick: bool) -> list[dict]:
             for seed in seeds:
                 bench = StressBench(seed, pattern, 0.25)
                 frames = [bench.camera.render(appearance=NOISE).image for _ in range(10)]
-                marker_map = calibrated(load_config(preset).with_overrides(MARKERS_ONLY), frames).marker_map
+                marker_map = mapped(calibrated(load_config(preset).with_overrides(MARKERS_ONLY), frames))
                 d = np.linalg.norm(marker_map.origin[:, None, :] - bench.origin[None, :, :], axis=2)
                 kept += int((d.min(axis=0) < 3.0).sum())
                 total += len(bench.origin)
@@ -290,7 +302,7 @@ def bench_real(quick: bool) -> list[dict]:
                                ("original markers", "original", MARKERS_ONLY),
                                ("original full", "original", {})]:
         fv = calibrated(load_config(preset).with_overrides({**over, "camera_fps": 54.0}), frames[:10])
-        n_calibrated = len(fv.marker_map)
+        n_calibrated = len(mapped(fv))
         tracked, times, swaps, jumps, prev = [], [], 0, 0, None
         for k, frame in enumerate(frames):
             t0 = time.perf_counter()
@@ -302,7 +314,7 @@ def bench_real(quick: bool) -> list[dict]:
                 jumps += relative_jumps(m.position, prev.position, m.valid & prev.valid)
             prev = m
         rows.append({"config": name, "frames": len(frames), "markers": n_calibrated,
-                     "markers_at_end": len(fv.marker_map),
+                     "markers_at_end": len(mapped(fv)),
                      "tracked_median": float(np.median(tracked)), "tracked_p5": float(np.percentile(tracked, 5)),
                      "swaps": swaps, "jumps_over_3px": jumps, "fps": 1.0 / float(np.median(times))})
     return rows

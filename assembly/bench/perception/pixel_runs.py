@@ -5,6 +5,7 @@ the real FingerVision pipeline made of the rendered frame. Read by `errors.py`."
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -13,7 +14,7 @@ import yaml
 
 from assembly.design.model import DesignModel
 from assembly.run.options import RunOptions
-from assembly.run.session import Run
+from assembly.run.session import Run, world_of
 from drivers.cell import Cell
 from drivers.cell_file import resolve_cell_path
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
@@ -77,8 +78,8 @@ def record(tree: Path, seed: int = 0, max_time: float = 120.0) -> PixelRun:
     ticks: dict[str, list[Tick]] = {f: [] for f in FINGERS}
     orders: dict[str, np.ndarray] = {}
 
-    def sense(cell: Cell) -> dict[str, TactileState]:
-        contacts = cell.world.contacts()  # what the frames about to be rendered show
+    def sense(cell: Cell) -> Mapping[str, TactileState]:
+        contacts = world_of(cell).contacts()  # what the frames about to be rendered show
         states = cell.sense()
         for f in FINGERS:
             truth = models[f].state(contacts[f], 0.0).markers

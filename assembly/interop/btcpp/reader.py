@@ -206,7 +206,7 @@ class _Reader:
     def _for_each_element(self, x: XmlNode) -> dict:
         """The exporter's ForEachElement: for_each_element, over the listed elements if any."""
         self.own_attrs(x, {"elements", "_while"})
-        out = {"for_each_element": _name(x)}
+        out: dict[str, Any] = {"for_each_element": _name(x)}
         if "elements" in x.attrs:
             out["elements"] = [e for e in x.attrs["elements"].split(";") if e]
         return {**out, "child": self._child(x)}

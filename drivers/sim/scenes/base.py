@@ -11,7 +11,7 @@ class Scene:
     """Base of the simulated scenes: empty `metrics` and `truth`; subclasses add `step` and
     `contacts` (and override the others where they know more)."""
 
-    TOLERANCES: ClassVar[dict[str, float]] = {}  # name -> default limit, for `shortfalls`
+    TOLERANCES: ClassVar[Mapping[str, float]] = {}  # name -> default limit, for `shortfalls`
 
     def shortfalls(self, tolerances: Mapping[str, float]) -> list[str]:
         """What the scene's truth shows was not done (an object dropped, ...); nothing by default."""
