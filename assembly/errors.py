@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from fileio.errors import FvtreeError, FvtreeErrors
+from fvfiles.errors import FvtreeError, FvtreeErrors
 
 
 class TreeError(FvtreeError):

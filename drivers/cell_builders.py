@@ -11,7 +11,7 @@ from pathlib import Path
 from drivers.cell import Cell
 from drivers.cell_file import CellFileError, read_cell_file, resolve_cell_path, section
 from drivers.safety import SafetyLimits
-from fileio.errors import did_you_mean
+from fvfiles.errors import did_you_mean
 
 # kind -> "module:function" taking (path, data, CellRequest) and returning a Cell.
 BUILDERS = {

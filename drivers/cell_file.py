@@ -8,8 +8,8 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from fileio.errors import FvtreeError, did_you_mean
-from fileio.yaml_source import Located, SourceError, load_file
+from fvfiles.errors import FvtreeError, did_you_mean
+from fvfiles.yaml_source import Located, SourceError, load_file
 
 CELLS_DIR = Path(__file__).parent / "cells"
 
@@ -50,7 +50,7 @@ def resolve_cell_path(name_or_path: str) -> Path:
 
 def read_cell_file(path: Path) -> dict:
     """The cell file as a mapping with a `kind`, or CellFileError. Read by the hardened reader of
-    `fileio.yaml_source` (regular files only, size, nesting and aliases capped, finite numbers)."""
+    `fvfiles.yaml_source` (regular files only, size, nesting and aliases capped, finite numbers)."""
     path = Path(path)
     if not path.exists():
         known = ", ".join(sorted(p.stem for p in CELLS_DIR.glob("*.yaml")))

@@ -14,7 +14,7 @@ from typing import Any, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 
-from fileio.errors import FvtreeError
+from fvfiles.errors import FvtreeError
 
 
 class DriverFault(FvtreeError, RuntimeError):

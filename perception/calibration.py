@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 import yaml
 
-from fileio.errors import FvtreeError
+from fvfiles.errors import FvtreeError
 from perception.config import FingerVisionConfig
 from perception.detect import make_detector, marker_mask
 from perception.frames import FrameError, as_bgr

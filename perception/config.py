@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-from fileio.errors import FvtreeError, did_you_mean
-from fileio.yaml_source import SourceError, load_file
+from fvfiles.errors import FvtreeError, did_you_mean
+from fvfiles.yaml_source import SourceError, load_file
 
 PRESET_DIR = Path(__file__).with_name("presets")
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from fileio.errors import FvtreeError
+from fvfiles.errors import FvtreeError
 from perception.calibration import MarkerMap, calibrate_markers
 from perception.config import FingerVisionConfig, load_config
 from perception.detect import make_detector

@@ -8,7 +8,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from fileio.errors import FvtreeError
+from fvfiles.errors import FvtreeError
 from perception.config import HealthConfig
 
 

@@ -47,7 +47,7 @@ def test_skills_import_only_the_skill_kit_of_behaviours():
     assert not wrong, "\n".join(wrong)
 
 
-TYPE_CHECKED = ("assembly", "behaviours", "fileio")
+TYPE_CHECKED = ("assembly", "behaviours", "fvfiles")
 
 
 def test_mypy_finds_nothing():

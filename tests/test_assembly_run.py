@@ -21,7 +21,7 @@ from assembly.run.loop import Runner
 from assembly.run.options import RunOptions
 from assembly.run.session import run_tree
 from drivers.cell_builders import load_cell
-from fileio.json_files import atomic_write_json
+from fvfiles.json_files import atomic_write_json
 
 TREES = Path(__file__).resolve().parents[1] / "trees"
 ASSEMBLY = str(TREES / "assembly.yaml")

@@ -15,7 +15,7 @@ from assembly.interop.btcpp import export_tree, import_xml
 from assembly.interop.btcpp.equivalence import differences, outline
 from assembly.language.reader import load_tree
 from assembly.testing import TreeHarness, mock_cell, touch
-from fileio.errors import FvtreeError
+from fvfiles.errors import FvtreeError
 
 XSD = xmlschema.XMLSchema(str(Path(__file__).parent / "data" / "btcpp" / "bt4.xsd"))
 

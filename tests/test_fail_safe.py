@@ -173,7 +173,7 @@ def test_a_failed_as_built_write_halts_the_run_with_the_placement_in_the_log(tmp
 
 
 def test_when_the_event_log_fails_too_the_placement_goes_to_stderr(tmp_path, monkeypatch, capsys):
-    from fileio import json_files
+    from fvfiles import json_files
 
     def fail(*args, **kwargs):
         raise PermissionError(13, "Permission denied")

@@ -169,7 +169,7 @@ if given is not None:
 
     def check(workspace: Workspace, loader: str, seed: str, ops) -> None:
         """The input loads, or raises an FvtreeError naming the file, within TIMEOUT_S."""
-        from fileio.errors import FvtreeError, FvtreeErrors
+        from fvfiles.errors import FvtreeError, FvtreeErrors
 
         data = mutate(workspace.seed(loader, seed), ops)
         try:

@@ -94,7 +94,7 @@ def test_an_old_run_directory_opens_from_its_logs(short_run, tmp_path):
 
 
 def test_not_a_run_directory_is_a_located_error(tmp_path):
-    from fileio.errors import FvtreeError
+    from fvfiles.errors import FvtreeError
 
     with pytest.raises(FvtreeError, match="not a run directory"):
         run_recordings(tmp_path)

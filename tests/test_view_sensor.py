@@ -9,7 +9,7 @@ import pytest
 
 from assembly.cli import main
 from assembly.observe.readback import read_recording
-from fileio.errors import FvtreeError
+from fvfiles.errors import FvtreeError
 from perception.calibration import MarkerMap
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -8,7 +8,7 @@ import sys
 
 from assembly.cli import bench, cell, design, interop, learning, observe, run, trees
 from assembly.cli.exits import EXIT_FAILURE, EXIT_USAGE, report
-from fileio.errors import FvtreeError
+from fvfiles.errors import FvtreeError
 
 __all__ = ["EXIT_FAILURE", "EXIT_USAGE", "main", "parser", "report"]
 

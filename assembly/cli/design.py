@@ -79,7 +79,7 @@ def cmd_coordinate(args) -> int:
 def cmd_design(args) -> int:
     from assembly.design.link.compas_data import load_compas, save_compas
     from assembly.design.model import DesignModel
-    from fileio.json_files import atomic_write_json
+    from fvfiles.json_files import atomic_write_json
 
     if args.direction == "to-compas":
         save_compas(DesignModel.load(args.source), args.target)

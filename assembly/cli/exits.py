@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 
-from fileio.errors import FvtreeError, FvtreeErrors
+from fvfiles.errors import FvtreeError, FvtreeErrors
 
 EXIT_FAILURE = 1  # the tree ran and failed, or a check failed
 EXIT_USAGE = FvtreeError.exit_code  # bad input: a tree, design, cell or data file, or an argument

@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 from assembly.cli.args import POSITIVE_INT, SEED, Subparsers, add_cell_option, add_perception_option, existing_file
-from fileio.errors import FvtreeError
+from fvfiles.errors import FvtreeError
 
 
 def add_commands(sub: Subparsers) -> None:

@@ -20,7 +20,7 @@ from assembly.cli.args import (
 from assembly.cli.design import add_link_options
 from assembly.cli.exits import EXIT_FAILURE
 from assembly.observe import IMAGE_HZ
-from fileio.errors import FvtreeError
+from fvfiles.errors import FvtreeError
 
 if TYPE_CHECKING:  # the language and the run load on first use: `fvtree --help` stays quick
     from assembly.language.substitution import Rule

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from assembly.cli.args import Subparsers
 from assembly.cli.exits import EXIT_USAGE, report
-from fileio.errors import FvtreeError
+from fvfiles.errors import FvtreeError
 
 
 def add_commands(sub: Subparsers) -> None:

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from assembly.design.model import DesignModel
-from fileio.json_files import append_json_line_or_stderr, atomic_write_json, read_json_lines
+from fvfiles.json_files import append_json_line_or_stderr, atomic_write_json, read_json_lines
 
 
 class DesignBridge:

@@ -19,10 +19,10 @@ from typing import Any
 import networkx as nx
 
 from assembly.errors import TreeError
-from fileio.errors import did_you_mean
-from fileio.json_source import load_json
-from fileio.schema_check import object_problems, short_json
-from fileio.yaml_source import Located
+from fvfiles.errors import did_you_mean
+from fvfiles.json_source import load_json
+from fvfiles.schema_check import object_problems, short_json
+from fvfiles.yaml_source import Located
 
 # placing: released but not yet recorded as standing. A live link (assembly.design.link) also shows
 # the passing states picking and failed, which no design or as-built file holds.

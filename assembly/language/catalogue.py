@@ -14,8 +14,8 @@ from pathlib import Path
 from assembly.language.plugins import load_plugins
 from behaviours.skill_kit.base import Param
 from behaviours.skill_kit.registry import PROJECT, SKILL_PACKAGES, SKILLS
-from fileio.errors import FvtreeError
-from fileio.yaml_source import load_file
+from fvfiles.errors import FvtreeError
+from fvfiles.yaml_source import load_file
 
 DEMO_TREES = Path(__file__).resolve().parents[2] / "trees"
 

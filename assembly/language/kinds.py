@@ -25,8 +25,8 @@ from behaviours.skill_kit.base import Param
 from behaviours.skill_kit.keys import TASK_KEYS
 from behaviours.skill_kit.model_files import check_model
 from behaviours.skill_kit.registry import SKILLS
-from fileio.errors import did_you_mean
-from fileio.yaml_source import Located
+from fvfiles.errors import did_you_mean
+from fvfiles.yaml_source import Located
 from perception.learning.models import ModelError
 
 STATUSES = {"success": Status.SUCCESS, "failure": Status.FAILURE, "running": Status.RUNNING}

@@ -20,7 +20,7 @@ from typing import Any
 
 from behaviours.skill_kit.base import Skill
 from behaviours.skill_kit.registry import SKILL_PACKAGES, SKILLS, register
-from fileio.errors import FvtreeError
+from fvfiles.errors import FvtreeError
 
 SKILL_GROUP = "fvtree.skills"
 SCENE_GROUP = "fvtree.scenes"

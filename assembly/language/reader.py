@@ -15,9 +15,9 @@ from assembly.language.kinds import NODE_KINDS
 from assembly.language.plugins import load_plugins
 from assembly.language.validator import NodeSpec, Scope, SubtreeDef, Validator, subtree_params
 from behaviours.skill_kit.keys import PERCEPTION_KEYS
-from fileio.errors import FvtreeError, did_you_mean
-from fileio.schema_check import schema_problem
-from fileio.yaml_source import Located, LocatedList, load_file, load_text
+from fvfiles.errors import FvtreeError, did_you_mean
+from fvfiles.schema_check import schema_problem
+from fvfiles.yaml_source import Located, LocatedList, load_file, load_text
 
 
 @dataclass

@@ -23,8 +23,8 @@ from assembly.errors import TreeError, TreeErrors
 from assembly.language.reader import TreeDocument
 from assembly.language.validator import NodeSpec
 from behaviours.skill_kit.registry import SKILLS
-from fileio.errors import FvtreeError, did_you_mean
-from fileio.yaml_source import read_text
+from fvfiles.errors import FvtreeError, did_you_mean
+from fvfiles.yaml_source import read_text
 
 _STATUS = re.compile(r"^(success|failure|running)$|^running:(\d+):(success|failure)$")
 SPEC_HINT = "use success, failure, running, running:N:success, running:N:failure or skill:TYPE[:{json params}]"

@@ -20,8 +20,8 @@ from assembly.nodes.conditions import ALL_OPS, split_key
 from behaviours.skill_kit import keys as bbkeys
 from behaviours.skill_kit.base import REQUIRED, Param
 from behaviours.skill_kit.registry import SKILLS
-from fileio.errors import did_you_mean
-from fileio.yaml_source import Located, LocatedList
+from fvfiles.errors import did_you_mean
+from fvfiles.yaml_source import Located, LocatedList
 
 MAX_NODES = 10_000  # nodes of a tree once its subtrees are expanded (subtrees can multiply them)
 MAX_DEPTH = 200  # levels of nodes

@@ -14,7 +14,7 @@ from typing import Any
 import pyarrow as pa
 from rerun.chunk import RrdReader
 
-from fileio.errors import FvtreeError
+from fvfiles.errors import FvtreeError
 
 RRD_MAGIC, RRD_HEADER, MESSAGE_HEADER = b"RRF2", 12, 16
 

@@ -26,7 +26,7 @@ from assembly.observe.layout import default_blueprint
 from assembly.observe.recorder import NODE_RADIUS
 from assembly.observe.tree_graph import tree_graph
 from assembly.signals import sigterm_raises_terminated
-from fileio.errors import FvtreeError
+from fvfiles.errors import FvtreeError
 
 HOST = "127.0.0.1"
 GRPC_PORT, WEB_PORT = 9876, 9090

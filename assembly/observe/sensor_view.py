@@ -16,7 +16,7 @@ import rerun.blueprint as rrb
 from assembly.observe.replay import Viewer, start_viewer
 from drivers.clock import WallClock
 from drivers.hardware.camera import CameraConfig, OpenCvCamera
-from fileio.errors import FvtreeError
+from fvfiles.errors import FvtreeError
 from perception.calibration import MarkerMap
 from perception.fingervision import FingerVision
 from perception.state import TactileState

@@ -9,7 +9,7 @@ from pathlib import Path
 from assembly.language.kinds import NODE_KINDS
 from assembly.language.reader import TreeDocument
 from assembly.language.validator import NodeSpec
-from fileio.errors import FvtreeError
+from fvfiles.errors import FvtreeError
 
 MARKS = {"SUCCESS": "✔", "FAILURE": "✘", "RUNNING": "*", "INVALID": "-"}
 

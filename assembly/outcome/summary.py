@@ -14,7 +14,7 @@ from assembly.design.model import DesignModel
 from assembly.outcome.result import RunResult
 from assembly.outcome.verdict import TASK_FAILED, Verdict
 from drivers.cell import Cell
-from fileio.json_files import atomic_write_json, to_jsonable
+from fvfiles.json_files import atomic_write_json, to_jsonable
 
 CURVE = "true_load_curve"  # a world's truth per element: the true load along the plate, for charts
 SUMMARY_FILE = "summary.json"

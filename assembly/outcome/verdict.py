@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from assembly.errors import TreeError
 from assembly.language.reader import TreeDocument
 from drivers.protocols import World
-from fileio.errors import did_you_mean
+from fvfiles.errors import did_you_mean
 
 TASK_FAILED = "TASK_FAILED"  # the tree said SUCCESS, the scene's truth says otherwise
 

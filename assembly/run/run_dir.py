@@ -12,7 +12,7 @@ from pathlib import Path
 
 from assembly.errors import TreeError
 from assembly.language.reader import TreeDocument
-from fileio.json_files import atomic_write_json
+from fvfiles.json_files import atomic_write_json
 
 RUN_FILE = "run.json"
 ASBUILT_FILE = "asbuilt.json"

@@ -43,7 +43,7 @@ from assembly.signals import sigterm_raises_terminated
 from drivers.cell import Cell
 from drivers.cell_builders import load_cell
 from drivers.protocols import World
-from fileio.errors import FvtreeError
+from fvfiles.errors import FvtreeError
 
 if TYPE_CHECKING:
     from typing_extensions import Self  # typing.Self from Python 3.11

@@ -45,7 +45,7 @@ from drivers.sim.devices.gripper import SimGripper
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
 from drivers.sim.scenes.base import Scene
 from drivers.sim.scenes.grip import empty_contacts
-from fileio.errors import did_you_mean
+from fvfiles.errors import did_you_mean
 from perception.state import FINGERS, ObjectInfo, TactileState
 
 Substitutions = dict[str, str | dict] | list[Rule] | None  # {PATH or glob: SPEC} or rules

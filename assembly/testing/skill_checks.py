@@ -65,7 +65,7 @@ from behaviours.skill_kit.base import Param, Skill
 from behaviours.skill_kit.registry import SKILL_PACKAGES, SKILLS
 from drivers.safe_gripper import SafeGripper
 from drivers.safety import SafeArm
-from fileio.errors import FvtreeError
+from fvfiles.errors import FvtreeError
 
 if TYPE_CHECKING:
     import pytest

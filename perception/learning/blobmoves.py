@@ -28,8 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from fileio.errors import FvtreeError
-from fileio.yaml_source import load_file
+from fvfiles.errors import FvtreeError
+from fvfiles.yaml_source import load_file
 from perception.learning.dataset import Dataset
 from perception.learning.features import columns, feature_spec, tick_features
 from perception.state import FINGERS, MarkerField, TactileState

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fileio.errors import FvtreeError
+from fvfiles.errors import FvtreeError
 from perception.learning.features import check_spec
 
 FORMAT = "fvtree-recording"

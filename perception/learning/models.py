@@ -25,7 +25,7 @@ from sklearn.neural_network import MLPClassifier
 from sklearn.pipeline import Pipeline, make_pipeline
 from sklearn.preprocessing import LabelBinarizer, StandardScaler
 
-from fileio.errors import FvtreeError
+from fvfiles.errors import FvtreeError
 from perception.learning.features import check_spec, feature_spec
 
 FORMAT = "fvtree-model"

@@ -19,7 +19,7 @@ from drivers.sim.devices.arm import KinematicArm
 from drivers.sim.devices.gripper import SimGripper
 from drivers.sim.models.plate import BeamPlate
 from drivers.sim.scenes import SCENES
-from fileio.errors import FvtreeError
+from fvfiles.errors import FvtreeError
 
 DESIGN_FILE = Path(__file__).resolve().parents[2] / "trees" / "design" / "two_bays.json"
 HOME = [0.0, 0.0, 0.5, np.pi, 0.0, 0.0]

@@ -33,7 +33,7 @@ from scipy.spatial.transform import Rotation
 
 from assembly.design.model import DesignModel
 from assembly.errors import TreeError
-from fileio.schema_check import schema_problem
+from fvfiles.schema_check import schema_problem
 
 FORMAT = "fvtree.design/1"  # graph attribute naming this layout, checked on load
 PLATE_THICKNESS = 0.02  # m, only for drawing: the design holds the soffit, not the thickness

@@ -34,7 +34,7 @@ from assembly.design.link.topics import DesignTopics, check_name
 from assembly.design.link.transport import LinkTransport
 from assembly.design.model import DesignModel
 from assembly.errors import TreeError
-from fileio.json_files import atomic_write_json
+from fvfiles.json_files import atomic_write_json
 
 log = logging.getLogger(__name__)
 OPS = ("claim", "renew", "placing", "placed", "failed")

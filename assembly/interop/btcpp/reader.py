@@ -23,8 +23,8 @@ from assembly.language.reader import load_tree
 from assembly.language.validator import known_blackboard_keys
 from behaviours.skill_kit.model_files import UsesModel
 from behaviours.skill_kit.registry import SKILLS
-from fileio.errors import did_you_mean
-from fileio.xml_source import XmlNode, parse_xml_file
+from fvfiles.errors import did_you_mean
+from fvfiles.xml_source import XmlNode, parse_xml_file
 
 COMPOSITES = {"Sequence": ("sequence", True), "ReactiveSequence": ("sequence", False),
               "Fallback": ("selector", True), "ReactiveFallback": ("selector", False)}

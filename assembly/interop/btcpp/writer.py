@@ -23,7 +23,7 @@ from assembly.language.reader import load_tree
 from behaviours.skill_kit.base import Param
 from behaviours.skill_kit.model_files import UsesModel
 from behaviours.skill_kit.registry import SKILLS
-from fileio.yaml_source import Located, load_file
+from fvfiles.yaml_source import Located, load_file
 
 PI_TARGET = "fvtree"
 MEMORY_TAGS = {("sequence", True): "Sequence", ("sequence", False): "ReactiveSequence",

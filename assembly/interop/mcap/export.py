@@ -26,7 +26,7 @@ from assembly.interop.mcap.schemas import SCHEMAS
 from assembly.observe.readback import read_recording
 from assembly.observe.recorder import PROFILE_HEIGHT
 from assembly.observe.replay import run_recordings
-from fileio.errors import FvtreeError
+from fvfiles.errors import FvtreeError
 from perception.state import FINGERS
 
 MCAP_FILE = "recording.mcap"

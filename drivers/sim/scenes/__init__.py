@@ -11,7 +11,7 @@ from drivers.cell_file import CellFileError, section
 from drivers.protocols import Clock, PerceptionSource, SceneArm, SceneGripper, World
 from drivers.sim.models.fingervision_model import SensorModel
 from drivers.sim.scenes import assembly, followme, handover, hold, press, stick, stir
-from fileio.errors import did_you_mean
+from fvfiles.errors import did_you_mean
 from perception.state import FINGERS
 
 # name -> builder(arm, gripper, scene_args, world settings, seed) -> World

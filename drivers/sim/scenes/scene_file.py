@@ -16,8 +16,8 @@ from pathlib import Path
 
 from drivers.cell_file import CellFileError, check_known, section
 from drivers.sim.models.plate import BeamPlate
-from fileio.errors import did_you_mean
-from fileio.yaml_source import load_file
+from fvfiles.errors import did_you_mean
+from fvfiles.yaml_source import load_file
 
 LOAD_FIELDS = tuple(name for name in BeamPlate.__dataclass_fields__ if name != "span")
 POSITIVE = ("EI", "k")

@@ -20,7 +20,7 @@ from typing import Any, overload
 
 import yaml
 
-from fileio.errors import FvtreeError
+from fvfiles.errors import FvtreeError
 
 MAX_BYTES = 1 << 20  # 1 MiB: the largest tree, design or cell file we read
 MAX_DEPTH = 100  # nesting levels of mappings and lists

@@ -9,7 +9,7 @@ import json.scanner
 from pathlib import Path
 from typing import Any
 
-from fileio.yaml_source import Located, SourceError, read_text
+from fvfiles.yaml_source import Located, SourceError, read_text
 
 
 def load_json(path: str | Path) -> Any:

@@ -1,6 +1,6 @@
 """Reading XML that cannot hurt: an expat parse with the line of every element, refusing any
 DOCTYPE (so no entity can be declared or expanded, internal or external) and capping size,
-element count and depth, like the YAML inputs (`fileio.yaml_source`)."""
+element count and depth, like the YAML inputs (`fvfiles.yaml_source`)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import NoReturn
 from xml.parsers import expat
 
-from fileio.yaml_source import MAX_BYTES, SourceError, read_text
+from fvfiles.yaml_source import MAX_BYTES, SourceError, read_text
 
 MAX_ELEMENTS = 100_000
 MAX_DEPTH = 200
