@@ -17,6 +17,8 @@ import pytest
 from assembly.bench.perception.pixel_runs import first_element_only
 from assembly.run.session import run_tree
 
+pytestmark = pytest.mark.slow  # whole demo runs in pixel mode
+
 TREES = Path(__file__).resolve().parents[1] / "trees"
 
 

@@ -13,6 +13,8 @@ from drivers_testkit import Emulator, emulating, next_host, tolerant_of_load
 from assembly.run.session import run_tree
 from drivers.cell_file import CELLS_DIR
 
+pytestmark = pytest.mark.slow  # whole trees on the emulated cell, at five times real time
+
 TREE = "trees/assembly.yaml"
 # Every skill demo but classify_substance: its demo StirLearn model, trained on the simulated cell
 # with one grasp, reads the emulated cell's flour as peas although the stirring features are close
