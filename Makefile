@@ -1,11 +1,16 @@
-# Two entry points: `make run` (the assembly on the simulated cell) and `make test`.
-# Both create .venv and install the project on first use.
+# Two entry points: `make run` (the assembly on the simulated cell) and `make test`; `make test-fast`
+# is the quick tier for development (every test but the long end-to-end runs marked `slow`).
+# All create .venv and install the project on first use.
 PYTHON ?= python3
 VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: run test clean
+# Tests run in parallel (pytest-xdist), one worker per core; a module's tests stay on one worker so
+# that its module-scoped fixtures (a recorded run, a broker, ...) are made once.
+PYTEST := $(BIN)/python -m pytest -n auto --dist loadscope
+
+.PHONY: run test test-fast clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -17,7 +22,10 @@ run: $(STAMP)
 	$(BIN)/fvtree run trees/assembly.yaml --cell sim
 
 test: $(STAMP)
-	$(BIN)/python -m pytest
+	$(PYTEST)
+
+test-fast: $(STAMP)
+	$(PYTEST) -m "not slow"
 
 clean:
 	rm -rf $(VENV) runs bench *.egg-info

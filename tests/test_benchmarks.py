@@ -5,8 +5,12 @@ from __future__ import annotations
 
 import csv
 
+import pytest
+
 from assembly.bench.perception import REAL_CLIP
 from assembly.cli import main
+
+pytestmark = pytest.mark.slow  # each runs a whole benchmark (quick mode)
 
 
 def read_csv(path):

@@ -11,7 +11,6 @@ import json
 import re
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -133,8 +132,9 @@ def test_a_design_update_joins_the_build_at_the_next_element_boundary(mqtt_broke
     c = client(mqtt_broker.url, "updates")
     run = ScriptedRun(tmp_path, mqtt_broker.url, "updates")
     run.until("E1", "placing")
-    wait_for(lambda: run.link.transport._is_connected, 120, "the cell's link")  # the run never waits for it
-    time.sleep(0.5)  # its subscription to updates goes out on connecting: messages before it are not kept
+    # The link subscribes to updates on connecting, before it sends what it queued: once its status
+    # reaches the client, the broker has its subscription (messages before it are not kept).
+    wait_for(lambda: ("E1", "placing") in statuses(c), 120, "the cell's link")  # the run never waits for it
     new = {"id": "E3", "plate": "P1", "size": [0.3, 0.04, 0.04], "pick_pose": [0.3, -0.6, 0.02, 0, 0, 0],
            "planned_pose": pose_to_frame([-0.1, 0.3, 0.2, 0, -1.5707963, 0])}  # a COMPAS frame is a pose too
     c.send({"update": "add-E3", "elements": [new], "edges": [{"source": "E3", "target": "E2"}]})
@@ -187,8 +187,7 @@ def test_conflicts_and_malformed_messages_are_answered_and_the_cell_goes_on(mqtt
     c = client(mqtt_broker.url, "bad")
     run = ScriptedRun(tmp_path, mqtt_broker.url, "bad")
     run.until("E1", "placed")
-    wait_for(lambda: run.link.transport._is_connected, 120, "the cell's link")  # the run never waits for it
-    time.sleep(0.5)  # its subscription to updates goes out on connecting: messages before it are not kept
+    wait_for(lambda: ("E1", "placed") in statuses(c), 120, "the cell's link")  # subscribed: see above
     for update, _, _ in BAD.values():
         c.send(update)
     raw = LinkTransport(mqtt_broker.url, "test-raw")  # what compas_eve would never send

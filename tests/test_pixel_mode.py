@@ -18,6 +18,8 @@ from assembly.bench.perception.pixel_runs import first_element_only
 from assembly.run.options import RunOptions
 from assembly.run.session import run_tree
 
+pytestmark = pytest.mark.slow  # whole demo runs in pixel mode
+
 TREES = Path(__file__).resolve().parents[1] / "trees"
 
 

@@ -143,6 +143,7 @@ def test_a_worker_that_stops_answering_is_reported_not_waited_for(tmp_path, monk
     assert not cell.sense.processes["right"].is_alive()  # killed: a stopped process ignores SIGTERM
 
 
+@pytest.mark.slow
 def test_workers_leave_when_the_main_process_is_killed():
     """No orphans: the workers see their pipe close and leave, even after SIGKILL of the main process."""
     script = ("import sys, time\nfrom drivers.cell_builders import load_cell\n"

@@ -138,6 +138,7 @@ def test_commands_are_tapped_at_the_safety_gate(assembly_run):
     assert ticks.count(0) <= 2 and len(set(ticks)) > len(ticks) / 4
 
 
+@pytest.mark.slow
 def test_a_killed_run_keeps_a_readable_recording(tmp_path):
     """SIGKILL mid-run (no handler runs): the recording holds every batch sent before it."""
     runs = tmp_path / "runs"

@@ -3,7 +3,11 @@ benchmarks show speed, tests show behaviour)."""
 
 from __future__ import annotations
 
+import pytest
+
 from assembly.cli import main
+
+pytestmark = pytest.mark.slow  # a whole benchmark (quick mode)
 
 
 def test_bench_recording_quick(tmp_path, capsys):

@@ -120,6 +120,7 @@ def _rendered(png: bytes) -> bool:
     return _colours(png) > 1000
 
 
+@pytest.mark.slow
 def test_live_run_renders_in_headless_chromium(tmp_path):
     """A run streams live to a viewer server; headless Chromium opens the web viewer and renders it."""
     _chromium_or_fail()

@@ -92,7 +92,7 @@ def stirlearn(rows: list, work: Path, quick: bool) -> None:
     from perception.learning.stir import classifiers, split, trials
 
     tree = work / "record_stir.yaml"
-    tree.write_text((TREES / "record_stir.yaml").read_text().replace("times: 40", f"times: {8 if quick else 40}"))
+    tree.write_text((TREES / "record_stir.yaml").read_text().replace("times: 40", f"times: {4 if quick else 40}"))
     (x, y), (x_other, y_other) = (trials(Dataset.load(record(tree, work / f"stir{seed}.npz", seed=seed)))
                                   for seed in (0, 1))
     train, test = split(y)

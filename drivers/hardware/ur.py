@@ -131,7 +131,7 @@ class UrArm:
         self._contact: _Job | None = None
         self._contact_deadline = 0.0
         self._restart_script = False  # we stopped the program ourselves; re-upload before the next command
-        self._snapshot = self._read_state()
+        self._snapshot = self._first_state_with_the_script(config.command_timeout)
         self._last_timestamp = self._snapshot["timestamp"]
         self._last_fresh = time.monotonic()
         self._stamp = clock.now()
@@ -325,6 +325,18 @@ class UrArm:
             self._latch(f"UR {self.config.host}: moveUntilContact found no contact in time")
             return False
         return True
+
+    def _first_state_with_the_script(self, timeout: float) -> dict[str, Any]:
+        """The first snapshot showing the control script running, or the last one after `timeout`
+        s: the receive interface is an RTDE session of its own and may not have read the packets
+        since the control interface started the script yet, so the monitor would take the script
+        for stopped."""
+        deadline = time.monotonic() + timeout
+        snap = self._read_state()
+        while snap["runtime"] != RUNTIME_PLAYING and time.monotonic() < deadline:
+            time.sleep(1.0 / self.control_rate)
+            snap = self._read_state()
+        return snap
 
     def _read_state(self) -> dict[str, Any]:
         """One consistent snapshot: ur_rtde has no multi-field read, so re-read when a new

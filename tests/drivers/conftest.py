@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import pytest
-from drivers_testkit import Emulator, next_host
+from drivers_testkit import READY_TIMEOUT, Emulator, next_host
 
 from drivers.clock import WallClock
 from drivers.emulators.launch import EmulatorProcess
@@ -17,7 +17,7 @@ def emulators():
 
     def start(module: str, backdoor_port: int, *args: str) -> Emulator:
         host = next_host()
-        proc = EmulatorProcess(module, ["--host", host, *args]).start()
+        proc = EmulatorProcess(module, ["--host", host, *args], ready_timeout=READY_TIMEOUT).start()
         started.append(proc)
         return Emulator(proc, host, backdoor_port)
 

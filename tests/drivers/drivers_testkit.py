@@ -16,8 +16,10 @@ _hosts = itertools.count(10)
 
 def next_host() -> str:
     """A fresh loopback address per emulator: the UR ports are fixed, so addresses must differ,
-    also between test sessions running at the same time (hence the process id)."""
-    return f"127.5.{os.getpid() % 250}.{next(_hosts) % 250 + 1}"
+    also between test workers and sessions running at the same time (hence the process id, in two
+    octets: no two live processes share them while process ids stay below 62 500)."""
+    pid = os.getpid()
+    return f"127.{pid // 250 % 250 + 1}.{pid % 250}.{next(_hosts) % 250 + 1}"
 
 
 class Emulator:
@@ -36,15 +38,20 @@ class Emulator:
 
 
 WALL_SLACK = 10.0  # s of wall time a loaded two-core machine may leave a thread unscheduled
+DEADLINE = 60.0  # s an awaited outcome may take on a loaded machine (a wait ends as soon as it holds)
+READY_TIMEOUT = 120.0  # s an emulator may take to start (import and listen) on a loaded machine
 
 
 def tolerant_of_load(data: dict, time_scale: float = 1.0) -> dict:
     """A real cell file's mapping with every timeout that measures scheduling rather than the
-    devices (the controller's RTDE watchdog, the driver's link timeout, the safety layer's
-    watchdog and data age, the supervisor's perception age) raised to WALL_SLACK s of wall time,
-    so that a busy test machine never stops the cell; `time_scale` is the emulators' speed-up."""
+    devices (the controller's RTDE watchdog, the drivers' link, command, dashboard and Modbus
+    timeouts, the safety layer's watchdog and data age, the supervisor's perception age) raised to
+    WALL_SLACK s of wall time, so that a busy test machine never stops the cell; `time_scale` is
+    the emulators' speed-up."""
     cell_seconds = WALL_SLACK * time_scale
-    data["arm"].update(watchdog_hz=1.0 / cell_seconds, link_timeout=WALL_SLACK)
+    data["arm"].update(watchdog_hz=1.0 / cell_seconds, link_timeout=WALL_SLACK, command_timeout=WALL_SLACK,
+                       dashboard_timeout=WALL_SLACK)
+    data["gripper"].update(timeout=WALL_SLACK, activation_timeout=WALL_SLACK)
     data["safety"].update(watchdog_timeout=cell_seconds, stale_after=cell_seconds)
     data["supervision"] = {"perception_stale_after": cell_seconds}
     return data
@@ -66,6 +73,7 @@ def emulating(cell_file, **options):
     procs = cell_emulators(cell_file, **options)
     try:
         for proc in procs:
+            proc.ready_timeout = READY_TIMEOUT
             proc.start()
         yield procs
     finally:

@@ -142,6 +142,7 @@ def test_real_cell_perception_errors_name_the_field(tmp_path, edit, field, messa
     assert err.value.line is not None
 
 
+@pytest.mark.slow
 def test_emulated_cell_builds_runs_perception_and_closes(emulated_cell):
     cell = load_cell(str(emulated_cell), 30.0, "assembly", {})
     try:
@@ -158,6 +159,7 @@ def test_emulated_cell_builds_runs_perception_and_closes(emulated_cell):
         cell.close()
 
 
+@pytest.mark.slow
 def test_check_reports_every_emulated_device_ok(emulated_cell):
     results = check_cell(str(emulated_cell))
     assert [name.split(" (")[0] for name, _, _ in results] == ["arm", "gripper", "camera left", "camera right"]
@@ -184,6 +186,7 @@ def test_check_of_a_bad_cell_file_is_a_located_error_before_any_device(tmp_path)
     assert str(err.value) == f"{path}: safety: missing section" and err.value.exit_code == 2
 
 
+@pytest.mark.slow
 def test_drivers_benchmark_writes_table_and_chart(tmp_path):
     paths = benchmark.run(tmp_path, quick=True)
     assert [p.name for p in paths] == ["drivers.csv", "drivers.md", "drivers.png"]

@@ -14,6 +14,8 @@ from assembly.run.options import RunOptions
 from assembly.run.session import run_tree
 from drivers.cell_file import CELLS_DIR
 
+pytestmark = pytest.mark.slow  # whole trees on the emulated cell, at five times real time
+
 TREE = "trees/assembly.yaml"
 # Every skill demo but classify_substance: its demo StirLearn model, trained on the simulated cell
 # with one grasp, reads the emulated cell's flour as peas although the stirring features are close

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import pytest
-from drivers_testkit import next_host, wait_until
+from drivers_testkit import DEADLINE, WALL_SLACK, next_host, wait_until
 from pymodbus.client import ModbusTcpClient
 
 from drivers.hardware.gripper_modbus import RobotiqConfig, RobotiqGripper
@@ -18,7 +18,8 @@ MANUAL_READ_STATUS = "090407d00003" + "b1ce"  # FC04, 3 registers from 2000
 
 
 def connect(emulator, framer: str) -> RobotiqGripper:
-    return RobotiqGripper(RobotiqConfig(emulator.host, port=5020, framing=framer, timeout=0.5))
+    """The driver, with a Modbus timeout a busy machine never reaches (the emulator answers at once)."""
+    return RobotiqGripper(RobotiqConfig(emulator.host, port=5020, framing=framer, timeout=WALL_SLACK))
 
 
 @pytest.mark.parametrize("framer", ["tcp", "rtu"])
@@ -32,12 +33,12 @@ def test_activation_then_close_on_an_object_and_open_again(start_robotiq, framer
         assert emulator.state()["registers"][0] == 0x3100  # the manual's "activation complete"
         g.move(0.0, speed=0.15, force=60.0)
         assert g.is_moving()
-        assert wait_until(lambda: not g.is_moving(), 3.0)
+        assert wait_until(lambda: not g.is_moving(), DEADLINE)
         assert g.object_detected()
         assert g.width() == pytest.approx(0.040, abs=0.085 / 255)
         assert g.status().obj == 2  # stopped by contact while closing
         g.move(0.085, speed=0.15)
-        assert wait_until(lambda: not g.is_moving(), 3.0)
+        assert wait_until(lambda: not g.is_moving(), DEADLINE)
         assert not g.object_detected() and g.width() == pytest.approx(0.085)
     finally:
         g.close()
@@ -49,10 +50,10 @@ def test_soft_pads_give_until_they_press_with_the_requested_force(start_robotiq)
     try:
         g.activate()
         g.move(0.0, speed=0.15, force=60.0)
-        assert wait_until(lambda: not g.is_moving(), 3.0) and g.object_detected()
+        assert wait_until(lambda: not g.is_moving(), DEADLINE) and g.object_detected()
         assert g.width() == pytest.approx(0.040 - 60.0 / 5000, abs=0.085 / 255)
         g.move(0.035, speed=0.15, force=60.0)  # less squeeze than the force allows: reached
-        assert wait_until(lambda: not g.is_moving(), 3.0)
+        assert wait_until(lambda: not g.is_moving(), DEADLINE)
         assert not g.object_detected() and g.width() == pytest.approx(0.035, abs=0.085 / 255)
     finally:
         g.close()
@@ -95,7 +96,7 @@ def test_injected_major_fault_is_reported_and_cleared_by_reactivation(start_robo
         g.activate()
         g.move(0.0)
         emulator.call("fault 0x0E")
-        assert wait_until(lambda: g.fault() is not None, 1.0)
+        assert wait_until(lambda: g.fault() is not None, DEADLINE)
         assert "0x0e" in g.fault() and "overcurrent" in g.fault()
         assert not g.is_moving()
         g.activate()  # the rising edge on rACT clears a major fault
@@ -106,7 +107,7 @@ def test_injected_major_fault_is_reported_and_cleared_by_reactivation(start_robo
 
 def test_command_before_activation_is_the_priority_fault(start_robotiq):
     emulator = start_robotiq("tcp")
-    raw = ModbusTcpClient(emulator.host, port=5020, timeout=0.5, retries=0)
+    raw = ModbusTcpClient(emulator.host, port=5020, timeout=WALL_SLACK, retries=0)
     assert raw.connect()
     assert not raw.write_registers(1000, [0x0800, 0x00FF, 0xFFFF], device_id=9).isError()  # rGTO, no rACT
     raw.close()
@@ -119,7 +120,7 @@ def test_command_before_activation_is_the_priority_fault(start_robotiq):
 
 def test_wrong_device_id_and_lost_link_are_clear_faults(start_robotiq):
     emulator = start_robotiq("tcp")
-    g = RobotiqGripper(RobotiqConfig(emulator.host, port=5020, device_id=8, timeout=0.5))
+    g = RobotiqGripper(RobotiqConfig(emulator.host, port=5020, device_id=8, timeout=WALL_SLACK))
     with pytest.raises(DriverFault, match="device_id"):
         g.activate()
     g.close()
@@ -158,7 +159,7 @@ def test_the_safety_layer_latches_the_robotiq_s_own_fault_and_keeps_bad_commands
         safe.reset()
         safe.move(0.0, 0.15, 60.0)
         emulator.call("fault 0x0E")
-        assert wait_until(lambda: safe.fault() is not None, 5.0)
+        assert wait_until(lambda: safe.fault() is not None, DEADLINE)
         assert "overcurrent" in safe.fault()
         safe.move(0.085)  # latched: refused although the driver would take it
         assert "overcurrent" in safe.fault()

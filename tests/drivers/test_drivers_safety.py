@@ -6,7 +6,7 @@ import time
 
 import numpy as np
 import pytest
-from drivers_testkit import wait_until
+from drivers_testkit import DEADLINE, wait_until
 
 from drivers.clock import SimClock, WallClock
 from drivers.protocols import DriverFault
@@ -140,7 +140,7 @@ def test_watchdog_thread_stops_the_arm_when_the_tick_loop_hangs():
         safe.speed_linear(np.array([0.02, 0, 0, 0, 0, 0]))
         hung_at = clock.now()
         safe.kick()  # the last tick: no more ticks, no supervise() calls from the loop
-        assert wait_until(lambda: safe.fault() is not None, 2.0)
+        assert wait_until(lambda: safe.fault() is not None, DEADLINE)
         assert safe.fault().startswith("watchdog")
         assert not arm.is_moving()
         assert clock.now() - hung_at >= 0.1

@@ -87,8 +87,8 @@ def mapped(fv: FingerVision) -> MarkerMap:
 def bench_accuracy_speed(quick: bool) -> list[dict]:
     """(a) Every detector/tracker/filter combination on a press-hold-release at noise sigma 4, and at
     two failure points: a 20 px shear and a textured object over 40 % of the skin."""
-    seq = Bench(seed=1).press(45 if quick else 150, NOISE)
-    n = 30 if quick else 48
+    seq = Bench(seed=1).press(15 if quick else 150, NOISE)
+    n = 12 if quick else 48
     shear = StressBench(seed=11).strain(n, Appearance(noise=2.0), shear_px=20.0)
     textured = StressBench(seed=11, pattern="qr", share=0.4).strain(n, Appearance(noise=2.0), shear_px=4.0)
     rows = []
@@ -111,7 +111,7 @@ def bench_accuracy_speed(quick: bool) -> list[dict]:
 def bench_pipelines(quick: bool) -> list[dict]:
     """Full pipelines (markers, filter, wrench, proximity, slip) with an object in view."""
     bench = Bench(seed=2)
-    seq = bench.press(45 if quick else 150, NOISE, obj=bench.object_samples(1)[0].truth.obj)
+    seq = bench.press(15 if quick else 150, NOISE, obj=bench.object_samples(1)[0].truth.obj)
     rows = []
     for preset, over in [("original", {}), ("thesis", {}), ("fast", {}), ("fast", {"slip.method": "flow"}),
                          ("fast", MARKERS_ONLY)]:
@@ -176,7 +176,7 @@ def bench_slip(quick: bool) -> list[dict]:
     """(b) Slip F1 against the slip stage's time, per method: the decision threshold is tuned on one
     rendered sequence and scored on another (different scene, noise and texture)."""
     rows = []
-    n = 150 if quick else 390
+    n = 90 if quick else 390
     for condition, look in [("noise 3", Appearance(noise=3.0)), ("noise 8 + blur", Appearance(8.0, blur=1.0))]:
         for method in ("mog2", "flow"):
             train, train_labels, _ = slip_scores(method, 40, n, look)
@@ -202,7 +202,7 @@ SWEEPS: dict[str, tuple[list[float], Callable[[float], Appearance] | None]] = {
 
 def bench_sweeps(quick: bool) -> list[dict]:
     """(c) Error against noise, lighting, blur, occlusion and displacement, calibrated clean."""
-    frames = 8 if quick else 24
+    frames = 4 if quick else 24
     bench = Bench(seed=5)
     clean = bench.calibration()
     rows = []
@@ -251,7 +251,7 @@ def _stress_sequences(frames: int):
 def bench_stress(quick: bool) -> list[dict]:
     """(e) Failure points: strain, objects behind the skin, gain, blur and noise, calibrated clean."""
     rows = []
-    for factor, value, seq in _stress_sequences(30 if quick else 48):
+    for factor, value, seq in _stress_sequences(8 if quick else 48):
         for method, (preset, over) in SWEEP_METHODS.items():
             config = load_config(preset).with_overrides({**over, **MARKERS_ONLY, "camera_fps": 30.0})
             fv = calibrated(config, seq.calibration)
@@ -268,7 +268,7 @@ def bench_calibration(quick: bool) -> list[dict]:
     running into a quarter of the markers (merged components): true markers kept, false ones (no true
     marker within 3 px) and the origin error of the kept ones."""
     rows = []
-    seeds = range(4 if quick else 8)
+    seeds = range(2 if quick else 8)
     for scene, pattern in (("plain", ""), ("dark edges", "edges")):
         for preset in ("original", "fast"):
             kept = total = false = 0
@@ -293,7 +293,7 @@ def bench_real(quick: bool) -> list[dict]:
     """(d) Real footage: tracked share of calibrated markers, swaps, jumps and frames per second."""
     if not REAL_CLIP.is_file():
         return [{"config": f"skipped: {REAL_CLIP} not found", "frames": 0}]
-    frames = read_clip(REAL_CLIP, 600 if quick else None)
+    frames = read_clip(REAL_CLIP, 150 if quick else None)
     rows = []
     for name, preset, over in [("fast markers", "fast", MARKERS_ONLY),
                                ("fast markers, no consistency check", "fast",
