@@ -21,7 +21,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-TIMEOUT_S = 10  # per input: far beyond any honest load, even on a loaded 2-core machine
+TIMEOUT_S = 10  # s of CPU time per input: far beyond any honest load
 TOKENS = [b".nan", b".inf", b"-.inf", b"NaN", b"Infinity", b"*a", b"&a ", b"*b", b"[", b"]", b"{", b"}", b": ",
           b"- ", b"\n", b"  ", b"\t", b"\x00", b"\x07", b"\x1b", b"\xff", b"\xc3", b"? ", b"? [a, b]\n: 1\n",
           b"!!python/object/apply:os.system ['true'] ", b"!!set ", b"!!binary ", b"~", b"null", b"-1", b"0", b"1e400",
@@ -65,21 +65,22 @@ def mutate(data: bytes, ops: list[tuple[int, float, float, bytes]]) -> bytes:
 
 
 class Hang(Exception):
-    """An input took longer than TIMEOUT_S."""
+    """An input took longer than TIMEOUT_S of CPU time."""
 
 
 @contextmanager
 def time_limit(seconds: float):
-    """Raise Hang in the main thread after `seconds` (SIGALRM)."""
+    """Raise Hang in the main thread after `seconds` of the process's CPU time (SIGPROF): what a
+    runaway parse burns, whatever else a loaded machine runs meanwhile."""
     def fire(signum, frame):
         raise Hang()
-    previous = signal.signal(signal.SIGALRM, fire)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
+    previous = signal.signal(signal.SIGPROF, fire)
+    signal.setitimer(signal.ITIMER_PROF, seconds)
     try:
         yield
     finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
+        signal.setitimer(signal.ITIMER_PROF, 0)
+        signal.signal(signal.SIGPROF, previous)
 
 
 class Workspace:
@@ -160,7 +161,8 @@ if given is not None:
     OPS = st.lists(st.tuples(st.integers(0, 7), st.floats(0, 1), st.floats(0, 1), st.sampled_from(TOKENS)),
                    min_size=1, max_size=6)
     def fuzz(examples: int) -> settings:
-        return settings(max_examples=examples, deadline=5000, derandomize=True, database=None,
+        # No wall-clock deadline: time_limit bounds each input's CPU time.
+        return settings(max_examples=examples, deadline=None, derandomize=True, database=None,
                         suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 
     @pytest.fixture(scope="module")
