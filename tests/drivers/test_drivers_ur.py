@@ -245,6 +245,31 @@ def test_the_safety_layer_keeps_non_finite_commands_off_the_wire(arm, ur, clock)
         assert arm.fault() is None  # nothing reached the driver
 
 
+def test_a_held_twist_stops_at_the_box_floor_on_the_emulated_controller(arm, ur, clock):
+    """The reproducer through the unmodified ur_rtde client: a twist commanded once, the floor 5 cm
+    below and nothing to touch (before: the TCP went 352 mm under the floor). The safety layer's
+    own thread checks the held twist one period ahead, plus the braking distance the driver
+    declares; a loaded machine may delay that thread, hence the 5 mm allowed below the floor."""
+    floor = HOME[2] - 0.05
+    limits = SafetyLimits(workspace_min=[-0.9, -0.9, floor], workspace_max=[0.9, 0.9, 0.9],
+                          watchdog_timeout=WALL_SLACK, stale_after=WALL_SLACK)
+    safe = SafeArm(arm, limits, clock)
+    safe.start_watchdog()
+    try:
+        safe.speed_linear(np.array([0.0, 0.0, -0.02, 0.0, 0.0, 0.0]))
+
+        def held() -> bool:
+            safe.kick()
+            return safe.held_at is not None
+        assert wait_until(held, DEADLINE, step=1 / 30)
+        assert wait_until(lambda: ur.state()["velocity"] == [0.0] * 6, DEADLINE)
+        z = ur.state()["pose"][2]
+        assert floor - 0.005 <= z < floor + 0.01, z
+        assert safe.held_at == "z min 0.35 m" and safe.fault() is None
+    finally:
+        safe.stop_watchdog()
+
+
 def test_the_back_door_refuses_non_finite_loads(ur):
     for line in ("external_wrench 0 0 nan", "external_wrench inf 0 0", "contact_plane nan"):
         reply = backdoor.call(ur.host, 30999, line)
