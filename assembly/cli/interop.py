@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from assembly.cli.args import Subparsers
+from fvfiles.errors import FvtreeError
 
 
 def add_commands(sub: Subparsers) -> None:
@@ -48,6 +49,9 @@ def cmd_export(args) -> int:
         out, counts = export_mcap(Path(args.tree), Path(args.out) if args.out else None, ros=args.ros2)
         print(f"wrote {out}: {sum(counts.values())} messages on {len(counts)} topics")
         return 0
+    if args.ros2:
+        raise FvtreeError("--ros2 writes a run as a ROS 2 bag (MCAP), not a tree", args.tree, field="--ros2",
+                          hint="give a run directory, or drop --ros2")
     from assembly.interop.btcpp import export_tree
 
     _write_or_print(export_tree(args.tree, Path(args.out).parent if args.out else Path("."), args.subtree_models),
