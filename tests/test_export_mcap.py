@@ -9,6 +9,8 @@ from __future__ import annotations
 import base64
 import json
 import shutil
+import subprocess
+import tarfile
 from collections import defaultdict
 from itertools import pairwise
 from pathlib import Path
@@ -20,12 +22,14 @@ from jsonschema import Draft202012Validator
 from mcap.reader import make_reader
 
 from assembly.cli import main
+from assembly.interop.mcap.schemas import SCHEMAS
 from assembly.observe.readback import read_recording
 from assembly.run.options import RunOptions
 from assembly.run.perception_stage import clear_blackboard
 from assembly.run.session import run_tree
 
 TREES = Path(__file__).resolve().parents[1] / "trees"
+OFFICIAL_SCHEMAS = "@foxglove/schemas@2"  # Foxglove's JSON schemas, on the npm registry
 PERIOD_NS = 1e9 / 30  # the demo trees tick at 30 Hz
 PER_TICK = {"/robot/pose": "foxglove.PoseInFrame", "/robot/wrench": "fvtree.Wrench", "/gripper": "fvtree.Gripper",
             "/fv/left/state": "fvtree.FingerState", "/fv/right/state": "fvtree.FingerState"}
@@ -144,7 +148,7 @@ def pixel_run(tmp_path_factory) -> Path:
     return _run("hold.yaml", tmp_path_factory.mktemp("runs"), perception="pixels", max_time=2.0, record_images=5.0)
 
 
-def test_camera_frames_of_a_pixel_run(pixel_run, tmp_path):
+def test_camera_frames_of_a_pixel_run(pixel_run, tmp_path, request):
     run_dir = pixel_run
     out = tmp_path / "hold.mcap"
     assert main(["export", str(run_dir), "--out", str(out), "--format", "mcap"]) == 0
@@ -160,6 +164,11 @@ def test_camera_frames_of_a_pixel_run(pixel_run, tmp_path):
         assert (image["format"], image["frame_id"]) == ("jpeg", f"fv_{finger}")
         decoded = cv2.imdecode(np.frombuffer(base64.b64decode(image["data"]), np.uint8), cv2.IMREAD_COLOR)
         assert decoded.shape == (240, 320, 3) and decoded.std() > 5  # a rendered skin, not a blank
+    if shutil.which("npm"):  # the images against Foxglove's official schema too (test_foxglove_schemas_...)
+        official = request.getfixturevalue("official_schemas")["foxglove.CompressedImage"]
+        for finger in ("left", "right"):
+            for _, image in messages[f"/fv/{finger}/image"]:
+                Draft202012Validator(official).validate(image)
 
 
 def test_an_old_run_without_a_recording_exports_its_logs(assembly, tmp_path):
@@ -220,6 +229,59 @@ def test_errors_name_the_path_and_exit_2(case, tmp_path, capsys):
                 "garbage recording": "not a readable recording", "no output directory": "--out: no such directory"}
     assert str(tmp_path) in err and expected[case] in err
     assert not list(tmp_path.rglob("*.mcap*"))
+
+
+@pytest.fixture(scope="module")
+def official_schemas(tmp_path_factory) -> dict[str, dict]:
+    """Foxglove's official JSON schemas by title, from the `@foxglove/schemas` package of the npm
+    registry (its `dist/jsonschema`, read with node)."""
+    npm, node = shutil.which("npm"), shutil.which("node")
+    if not (npm and node):
+        pytest.skip("needs npm and node (Debian's nodejs and npm) to fetch Foxglove's official @foxglove/schemas")
+    tmp = tmp_path_factory.mktemp("foxglove")
+    packed = subprocess.run([npm, "pack", OFFICIAL_SCHEMAS, "--pack-destination", str(tmp)], check=False,
+                            capture_output=True, text=True, timeout=600)
+    if packed.returncode:
+        pytest.skip(f"npm could not fetch {OFFICIAL_SCHEMAS}: {packed.stderr.strip()[-300:]}")
+    [archive] = tmp.glob("*.tgz")
+    with tarfile.open(archive) as tar:
+        tar.extractall(tmp, filter="data")
+    dumped = subprocess.run([node, "-e", "process.stdout.write(JSON.stringify(require(process.argv[1])))",
+                             str(tmp / "package" / "dist" / "jsonschema" / "index.js")],
+                            capture_output=True, text=True, timeout=120, check=True)
+    return {schema["title"]: schema for schema in json.loads(dumped.stdout).values()}
+
+
+def _same_shape(ours: dict, official: dict, where: str) -> None:
+    """`ours` says what `official` says (titles, types, bounds, properties in order, `required`), leaving
+    out descriptions; an array whose items `ours` leaves open is one the export leaves empty."""
+    for key, value in ours.items():
+        if key not in ("description", "properties", "items", "oneOf"):
+            assert official.get(key) == value, f"{where}: {key}"
+    if "properties" in ours:
+        assert list(ours["properties"]) == list(official["properties"]), where
+        assert ours.get("required") == official.get("required"), f"{where}: required"
+        for name, schema in ours["properties"].items():
+            _same_shape(schema, official["properties"][name], f"{where}.{name}")
+    if "items" in ours:
+        _same_shape(ours["items"], official["items"], f"{where}[]")
+    if "oneOf" in ours:
+        assert [(o["title"], o["const"]) for o in ours["oneOf"]] == [(o["title"], o["const"]) for o in official["oneOf"]]
+
+
+def test_foxglove_schemas_are_the_official_ones(assembly, official_schemas):
+    _, _, schemas, messages = assembly
+    for name, schema in SCHEMAS.items():
+        if name.startswith("foxglove."):
+            _same_shape(schema, official_schemas[name], name)
+            assert official_schemas[name]["required"]  # (the official lists are there to compare with)
+    validators = {name: Draft202012Validator(official_schemas[name]) for name in set(schemas.values())
+                  if name.startswith("foxglove.")}
+    assert set(validators) == {"foxglove.Log", "foxglove.PoseInFrame", "foxglove.SceneUpdate"}
+    for topic, name in schemas.items():
+        if name in validators:
+            for _, message in messages[topic]:
+                validators[name].validate(message)
 
 
 # ---- ROS 2: `fvtree export RUN_DIR --ros2`, decoded by mcap-ros2-support (its own message-definition
