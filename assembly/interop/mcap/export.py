@@ -17,6 +17,7 @@ import shutil
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from mcap.writer import Writer
 
@@ -41,13 +42,13 @@ class Kind:
     schema_encoding: str
     message_encoding: str
     schema: Callable[[str], bytes]  # a schema's name -> its data
-    messages: Callable[[Recording, dict, int], Iterator[tuple[int, str, str, object]]]
-    encode: Callable[[object], bytes]
+    messages: Callable[[Recording, dict, int], Iterator[tuple[int, str, str, Any]]]
+    encode: Callable[[Any], bytes]  # a message -> its bytes
 
 
 FOXGLOVE = Kind(MCAP_FILE, "", "jsonschema", "json", lambda name: json.dumps(SCHEMAS[name]).encode(),
                 foxglove.messages, lambda message: json.dumps(message).encode())
-ROS2 = Kind(ROS2_FILE, "ros2", "ros2msg", "cdr", ros2.definition, ros2.messages, lambda message: message)
+ROS2 = Kind(ROS2_FILE, "ros2", "ros2msg", "cdr", ros2.definition, ros2.messages, bytes)  # CDR already
 
 
 def export_mcap(run_dir: Path, out: Path | None = None, ros: bool = False) -> tuple[Path, dict[str, int]]:
