@@ -426,6 +426,26 @@ def test_ros2_a_resumed_runs_sessions_follow_one_another(pixel_run, tmp_path):
     assert refs[:half] == refs[half:] and refs[half] == 0  # each session's cell clock starts at 0
 
 
+def test_ros2_bag_opens_in_rosbags_with_the_files_own_definitions(assembly, ros2_assembly):
+    """rosbags (the library that wrote it) opens the file as a ROS 2 bag with an empty type store,
+    so every type comes from the definitions in the file, and reads back every message."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+
+    types, messages = ros2_assembly
+    with AnyReader([assembly[0] / "recording.ros2.mcap"], default_typestore=get_typestore(Stores.EMPTY)) as reader:
+        assert reader.is2
+        assert {c.topic: c.msgtype for c in reader.connections} == types
+        assert {c.topic: c.msgcount for c in reader.connections} == {t: len(m) for t, m in messages.items()}
+        read = defaultdict(list)
+        for connection, t, raw in reader.messages():
+            read[connection.topic].append((t, reader.deserialize(raw, connection.msgtype)))
+    assert {topic: [t for t, _ in m] for topic, m in read.items()} == {
+        topic: [t for t, _ in m] for topic, m in messages.items()}
+    assert [s.name for s in read["/tree/status"][-1][1].status] == [
+        s.name for s in messages["/tree/status"][-1][1].status]
+
+
 def test_ros2_of_a_tree_is_refused(tmp_path, capsys):
     assert main(["export", str(TREES / "hold.yaml"), "--ros2"]) == 2
     assert "--ros2" in capsys.readouterr().err
