@@ -91,7 +91,7 @@ def messages(rec: Recording, summary: dict, start: int) -> Iterator[Message]:
         yield t, "/robot/wrench", WRENCH, wrench(t, TOOL_FRAME, values[0:3], values[3:6])
     for t, row in timed(rec.get("gripper/width", []), start):
         yield t, "/gripper/joint_states", JOINTS, bytes(cdr(types[JOINTS](
-            header=header(t, FRAME), name=[GRIPPER_JOINT], position=_floats([row["Scalars:scalars"][0]]),
+            header=header(t, ""), name=[GRIPPER_JOINT], position=_floats([row["Scalars:scalars"][0]]),
             velocity=_floats([]), effort=_floats([])), JOINTS))
     for finger in FINGERS:
         frame = finger_frame(finger)
