@@ -16,9 +16,9 @@ from typing import Any
 import yaml
 
 from assembly.errors import TreeError, TreeErrors
-from assembly.interop.btcpp.nodes_model import PORT_TYPES
-from assembly.interop.btcpp.values import PORT_REF, PortError, from_port, read_condition_script
-from assembly.interop.btcpp.writer import PI_TARGET, rebase
+from assembly.interop.btcpp.nodes_model import NOT_GIVEN, PORT_TYPES
+from assembly.interop.btcpp.values import PORT_REF, PortError, from_port, read_condition_script, to_port
+from assembly.interop.btcpp.writer import DEFAULTS_ATTR, META_TAG, rebase
 from assembly.language.reader import load_tree
 from assembly.language.validator import known_blackboard_keys
 from behaviours.skill_kit.model_files import UsesModel
@@ -61,6 +61,7 @@ class _Reader:
     file: str
     out_dir: Path
     subtree_types: dict[str, dict[str, str]]  # subtree -> param -> declared type
+    subtree_defaults: dict[str, dict[str, str]] = field(default_factory=dict)  # subtree -> param -> default port
     errors: list[TreeError] = field(default_factory=list)
     keys: set[str] = field(default_factory=known_blackboard_keys)
 
@@ -158,7 +159,7 @@ class _Reader:
         a = x.attrs
         out = {"parallel": _name(x), "policy": a.get("policy"), "synchronise": self.port(x, "synchronise", "bool")
                if "synchronise" in a else False}
-        if "selected" in a:
+        if a.get("selected", NOT_GIVEN) != NOT_GIVEN:
             out["selected"] = a["selected"].split(";")
         return {**out, "children": self.children(x, one=False)}
 
@@ -207,7 +208,7 @@ class _Reader:
         """The exporter's ForEachElement: for_each_element, over the listed elements if any."""
         self.own_attrs(x, {"elements", "_while"})
         out: dict[str, Any] = {"for_each_element": _name(x)}
-        if "elements" in x.attrs:
+        if x.attrs.get("elements", NOT_GIVEN) != NOT_GIVEN:
             out["elements"] = [e for e in x.attrs["elements"].split(";") if e]
         return {**out, "child": self._child(x)}
 
@@ -221,7 +222,7 @@ class _Reader:
         """The exporter's BlackboardCheck: a condition, its value JSON."""
         self.own_attrs(x, {"key", "op", "value", "_while"})
         out = {"condition": _name(x), "key": x.attrs.get("key"), "op": x.attrs.get("op")}
-        if "value" in x.attrs:
+        if x.attrs.get("value", NOT_GIVEN) != NOT_GIVEN:
             try:
                 out["value"] = json.loads(x.attrs["value"])
             except json.JSONDecodeError:
@@ -236,7 +237,8 @@ class _Reader:
         """A node whose tag is a skill's name: the skill, its ports as params (model files rebased)."""
         cls = SKILLS[x.tag]
         self.own_attrs(x, {*cls.PARAMS, "_while"})
-        params = {k: self.port(x, k, cls.PARAMS[k].type) for k in x.attrs if k in cls.PARAMS}
+        params = {k: self.port(x, k, cls.PARAMS[k].type) for k, v in x.attrs.items() if k in cls.PARAMS
+                  and not (v == NOT_GIVEN and not cls.PARAMS[k].required and cls.PARAMS[k].default is None)}
         if issubclass(cls, UsesModel) and isinstance(params.get("model"), str) and not params["model"].startswith("$"):
             params["model"] = rebase(params["model"], Path(self.file).parent, self.out_dir)
         out: dict[str, Any] = {"skill": x.tag}
@@ -255,9 +257,11 @@ class _Reader:
             return None
         if x.attrs.get("_autoremap", "false") != "false":
             self.refuse(x, "_autoremap has no equivalent", "pass each param as a port")
-        types = self.subtree_types[ref]
+        types, defaults = self.subtree_types[ref], self.subtree_defaults.get(ref, {})
+        implied = set(x.attrs.get(DEFAULTS_ATTR, "").split(";"))  # written only for BT.CPP: left out again
         params = {k: self.port(x, k, types.get(k, "str")) for k in x.attrs
-                  if k not in ("ID", "name", "_autoremap", "_while") and k not in LAYOUT_ATTRS}
+                  if k not in ("ID", "name", "_autoremap", "_while", DEFAULTS_ATTR) and k not in LAYOUT_ATTRS
+                  and not (k in implied and k in defaults and x.attrs[k] == defaults[k])}
         out: dict[str, Any] = {"subtree": ref}
         if x.attrs.get("name", ref) != ref:
             out["name"] = x.attrs["name"]
@@ -297,16 +301,19 @@ def _rename(node: dict, name: str) -> None:
 
 
 def _metadata(root: XmlNode, file: str) -> dict:
-    """The `<?fvtree {json}?>` the exporter writes (empty for files from elsewhere)."""
-    for target, data in root.instructions:
-        if target == PI_TARGET:
-            try:
-                meta = json.loads(data)
-            except json.JSONDecodeError as exc:
-                raise TreeErrors([TreeError(f"<?fvtree?> is not JSON: {exc.msg}", file, root.line)]) from None
-            if not isinstance(meta, dict):
-                raise TreeErrors([TreeError("<?fvtree?> must hold a JSON object", file, root.line)])
-            return meta
+    """The `<!-- fvtree {json} -->` comment the exporter writes (or the `<?fvtree {json}?>` of
+    files exported before it, which BT.CPP cannot load); empty for files from elsewhere."""
+    found = [(text.strip()[len(META_TAG):], line) for text, line in root.comments
+             if text.strip().startswith(META_TAG + " {")]
+    found += [(data, root.line) for target, data in root.instructions if target == META_TAG]
+    for data, line in found[:1]:
+        try:
+            meta = json.loads(data)
+        except json.JSONDecodeError as exc:
+            raise TreeErrors([TreeError(f"the fvtree metadata is not JSON: {exc.msg}", file, line)]) from None
+        if not isinstance(meta, dict):
+            raise TreeErrors([TreeError("the fvtree metadata must be a JSON object", file, line)])
+        return meta
     return {}
 
 
@@ -370,7 +377,8 @@ def import_xml(path: str | Path, out: str | Path) -> str:
     subtrees = {name: ours[name].get("params", {}) if name in ours else groot.get(name, {})
                 for name in trees if name != main}
     out_dir = Path(out).parent
-    reader = _Reader(file, out_dir, {n: {p: d.get("type", "str") for p, d in ps.items()} for n, ps in subtrees.items()})
+    reader = _Reader(file, out_dir, {n: {p: d.get("type", "str") for p, d in ps.items()} for n, ps in subtrees.items()},
+                     {n: _default_ports(ps) for n, ps in subtrees.items()})
     reader.errors = errors
 
     def body(tree: XmlNode) -> dict | None:
@@ -394,6 +402,17 @@ def import_xml(path: str | Path, out: str | Path) -> str:
     text = yaml.safe_dump(_plain(doc), sort_keys=False, default_flow_style=None, width=110)
     load_tree(text=text, name=str(out))  # the result validates, or says why not
     return text
+
+
+def _default_ports(params: dict[str, dict]) -> dict[str, str]:
+    """The port spelling of each declared param default (those that have one)."""
+    out = {}
+    for name, decl in params.items():
+        try:
+            out[name] = to_port(decl["default"]) if "default" in decl else None
+        except PortError:
+            out[name] = None
+    return {k: v for k, v in out.items() if v is not None}
 
 
 def _plain(value: Any) -> Any:
