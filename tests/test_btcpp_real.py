@@ -150,7 +150,7 @@ def plugin_export(tmp_path_factory) -> str:
 def test_the_plugin_example_tree_loads_ticks_and_validates(library, bt4, plugin_export):
     run = library.run(plugin_export)
     assert run.status == "SUCCESS" and reached(run) == stub_names(plugin_export) == {"pinch", "let_go"}
-    assert dict((node_id, ports) for _, node_id, ports in run.reads)["pinch"]["squeeze"] == "0.20000000000000001"
+    assert {node_id: ports for _, node_id, ports in run.reads}["pinch"]["squeeze"] == "0.20000000000000001"
     bt4.validate(plugin_export)
     xmlschema.XMLSchema(io.StringIO(library.xsd(plugin_export))).validate(plugin_export)
 

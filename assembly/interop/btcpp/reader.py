@@ -8,6 +8,7 @@ validated like any tree file before it is returned.
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,7 +18,16 @@ import yaml
 
 from assembly.errors import TreeError, TreeErrors
 from assembly.interop.btcpp.nodes_model import NOT_GIVEN, PORT_TYPES
-from assembly.interop.btcpp.values import PORT_REF, PortError, from_port, read_condition_script, to_port
+from assembly.interop.btcpp.relocate import node_lines, relocate
+from assembly.interop.btcpp.values import (
+    PORT_REF,
+    PortError,
+    from_port,
+    key_of_identifier,
+    literal,
+    read_condition_script,
+    to_port,
+)
 from assembly.interop.btcpp.writer import DEFAULTS_ATTR, META_TAG, rebase
 from assembly.language.reader import load_tree
 from assembly.language.validator import known_blackboard_keys
@@ -57,6 +67,16 @@ PRECONDITIONS = {
 
 
 @dataclass
+class Scope:
+    """What a `{key}` port can stand for in the tree being read: a param of the subtree (`$key`),
+    or the default the file's `<TreeNodesModel>` declares for a port of the main tree."""
+
+    params: set[str] = field(default_factory=set)
+    defaults: dict[str, str] = field(default_factory=dict)
+    subtree: bool = False  # a subtree's body (else the main tree)
+
+
+@dataclass
 class _Reader:
     file: str
     out_dir: Path
@@ -64,16 +84,43 @@ class _Reader:
     subtree_defaults: dict[str, dict[str, str]] = field(default_factory=dict)  # subtree -> param -> default port
     errors: list[TreeError] = field(default_factory=list)
     keys: set[str] = field(default_factory=known_blackboard_keys)
+    scope: Scope = field(default_factory=Scope)
+    lines: dict[int, int] = field(default_factory=dict)  # id of a node mapping made -> its XML line
+    seen: set[int] = field(default_factory=set)  # ids of the XML nodes read
 
     def refuse(self, x: XmlNode, message: str, hint: str | None = None) -> None:
         self.errors.append(TreeError(message, self.file, x.line, f"<{x.tag}>", hint))
 
     def port(self, x: XmlNode, attr: str, type_: str) -> Any:
         try:
-            return from_port(x.attrs[attr], type_)
+            value = from_port(x.attrs[attr], type_)
         except PortError as exc:
             self.refuse(x, f"{attr}: {exc}")
             return None
+        ref = PORT_REF.match(x.attrs[attr])
+        return self.reference(x, attr, ref.group(1), lambda text: from_port(text, type_)) if ref else value
+
+    def reference(self, x: XmlNode, attr: str, name: str, read: Callable[[str], Any]) -> Any:
+        """What a `{name}` port (or a script's bare `name`) is here: the subtree's param `$name`,
+        the main tree's declared default for port `name` (read by `read`), or refused (None)."""
+        if name in self.scope.params:
+            return "$" + name
+        if name in self.scope.defaults:
+            try:
+                return read(self.scope.defaults[name])
+            except PortError as exc:
+                self.refuse(x, f"{attr}: the default of the tree's port {name!r}: {exc}")
+                return None
+        try:
+            key = key_of_identifier(name, self.keys)
+            hint = (f"{key} is read by the skills that need it, not passed as a param; in fvtree only conditions "
+                    f"read keys (ScriptCondition code=\"@{name} == ...\")")
+        except PortError:
+            hint = (f"write the value here, declare a port {name!r} with a default for this tree "
+                    f"(Groot2: the tree's port list), or make this part a subtree with a param {name!r}")
+        where = "a param of this subtree" if self.scope.subtree else "a port of the main tree with a default"
+        self.refuse(x, f"{attr}: {{{name}}} is not {where}: fvtree params are fixed when the tree loads", hint)
+        return None
 
     def children(self, x: XmlNode, one: bool) -> list[dict]:
         if one and len(x.children) != 1:
@@ -97,18 +144,27 @@ class _Reader:
         return out
 
     def node(self, x: XmlNode) -> dict | None:
+        self.seen.add(id(x))
         for attr in x.attrs:
             if attr in PRECONDITIONS:
                 self.refuse(x, f"attribute {attr} has no equivalent", PRECONDITIONS[attr])
         before = len(self.errors)
         body = self._node(x)
+        for child in x.children:  # a refused node's children are read all the same, for their own refusals
+            if id(child) not in self.seen:
+                self.node(child)
         if body is None or len(self.errors) > before:
             return None
+        self.lines[id(body)] = x.line
         if "_description" in x.attrs:
             body["doc"] = x.attrs["_description"]
         if "_while" in x.attrs and x.tag != "Guard":  # a scripted pre-condition: a guard around the node
             cond = self.condition(x, x.attrs["_while"])
-            return None if cond is None else {"guard": f"{_name_of(body)}_while", "while": cond, "child": body}
+            if cond is None:
+                return None
+            guard = {"guard": f"{_name_of(body)}_while", "while": cond, "child": body}
+            self.lines[id(guard)] = x.line
+            return guard
         return body
 
     def own_attrs(self, x: XmlNode, allowed: set[str]) -> None:
@@ -118,10 +174,16 @@ class _Reader:
 
     def condition(self, x: XmlNode, code: str) -> dict | None:
         try:
-            return read_condition_script(code, self.keys)
+            cond = read_condition_script(code, self.keys)
         except PortError as exc:
             self.refuse(x, f"script: {exc}")
             return None
+        value = cond["value"]
+        if isinstance(value, str) and value.startswith("$"):  # a bare name: a port of the tree
+            cond["value"] = self.reference(x, "script", value[1:], _literal_default)
+            if cond["value"] is None:
+                return None
+        return cond
 
     def _node(self, x: XmlNode) -> dict | None:
         """The fvtree node of one BT.CPP node (its pre-conditions aside), or None if it is refused."""
@@ -221,7 +283,14 @@ class _Reader:
     def _blackboard_check(self, x: XmlNode) -> dict:
         """The exporter's BlackboardCheck: a condition, its value JSON."""
         self.own_attrs(x, {"key", "op", "value", "_while"})
-        out = {"condition": _name(x), "key": x.attrs.get("key"), "op": x.attrs.get("op")}
+        key = x.attrs.get("key", "")
+        ref = PORT_REF.match(key) or re.match(r"^\{(/.*)\}$", key)
+        if ref:  # a Groot2 user's {key}: the project's key it spells (fv_left__slip) or holds (/fv/left.slip)
+            try:
+                key = ref.group(1) if ref.group(1).startswith("/") else key_of_identifier(ref.group(1), self.keys)
+            except PortError as exc:
+                self.refuse(x, f"key: {exc}")
+        out = {"condition": _name(x), "key": key, "op": x.attrs.get("op")}
         if x.attrs.get("value", NOT_GIVEN) != NOT_GIVEN:
             try:
                 out["value"] = json.loads(x.attrs["value"])
@@ -374,6 +443,7 @@ def import_xml(path: str | Path, out: str | Path) -> str:
                                 hint=f"trees in this file: {', '.join(trees) or 'none'}"))
         raise TreeErrors(errors)
     ours, groot = meta.get("subtrees") or {}, _groot_subtree_params(model, trees, file)
+    main_defaults = _default_ports(groot.get(main, {}))
     subtrees = {name: ours[name].get("params", {}) if name in ours else groot.get(name, {})
                 for name in trees if name != main}
     out_dir = Path(out).parent
@@ -381,9 +451,12 @@ def import_xml(path: str | Path, out: str | Path) -> str:
                      {n: _default_ports(ps) for n, ps in subtrees.items()})
     reader.errors = errors
 
-    def body(tree: XmlNode) -> dict | None:
+    def body(tree: XmlNode, scope: Scope) -> dict | None:
+        reader.scope = scope
         if len(tree.children) != 1:
             reader.refuse(tree, f"a <BehaviorTree> holds one root node, got {len(tree.children)}")
+            for child in tree.children:
+                reader.node(child)
             return None
         return reader.node(tree.children[0])
 
@@ -394,14 +467,26 @@ def import_xml(path: str | Path, out: str | Path) -> str:
     if "design" in meta:
         doc["design"] = rebase(meta["design"], Path(file).parent, out_dir)
     if subtrees:
-        doc["subtrees"] = {name: {**({"params": params} if params else {}), "root": body(trees[name])}
+        doc["subtrees"] = {name: {**({"params": params} if params else {}), "root": body(trees[name], Scope(set(params), subtree=True))}
                            for name, params in subtrees.items()}
-    doc["root"] = body(trees[main])
+    doc["root"] = body(trees[main], Scope(defaults=main_defaults))
     if reader.errors:
-        raise TreeErrors(reader.errors)
+        raise TreeErrors(sorted(reader.errors, key=lambda e: e.line or 0))
     text = yaml.safe_dump(_plain(doc), sort_keys=False, default_flow_style=None, width=110)
-    load_tree(text=text, name=str(out))  # the result validates, or says why not
+    try:
+        load_tree(text=text, name=str(out))  # the result validates, or says why not
+    except TreeErrors as exc:  # said of the YAML we made: said again of the XML lines it came from
+        raise relocate(exc, str(out), file, node_lines(doc, reader.lines)) from None
     return text
+
+
+def _literal_default(text: str) -> Any:
+    """A declared port default used as a script's value: a number or true/false, else the string."""
+    try:
+        value = literal(text)
+    except PortError:
+        return text
+    return text if isinstance(value, str) and value.startswith("$") else value
 
 
 def _default_ports(params: dict[str, dict]) -> dict[str, str]:
