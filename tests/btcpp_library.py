@@ -128,7 +128,11 @@ def _sdist_headers(version: str, cache: Path) -> Path:
                 m.name = m.name[len(prefix):]
             tar.extractall(Path(tmp) / "include", members=members, filter="data")
         include.parent.mkdir(parents=True, exist_ok=True)
-        os.replace(Path(tmp) / "include", include)
+        try:
+            os.replace(Path(tmp) / "include", include)
+        except OSError:  # another session put it there first
+            if not include.is_dir():
+                raise
     return include
 
 

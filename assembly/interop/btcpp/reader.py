@@ -17,7 +17,8 @@ from typing import Any
 import yaml
 
 from assembly.errors import TreeError, TreeErrors
-from assembly.interop.btcpp.nodes_model import NOT_GIVEN, PORT_TYPES
+from assembly.interop.btcpp.declarations import default_ports, groot_subtree_params, metadata
+from assembly.interop.btcpp.nodes_model import NOT_GIVEN
 from assembly.interop.btcpp.relocate import node_lines, relocate
 from assembly.interop.btcpp.values import (
     PORT_REF,
@@ -26,9 +27,8 @@ from assembly.interop.btcpp.values import (
     key_of_identifier,
     literal,
     read_condition_script,
-    to_port,
 )
-from assembly.interop.btcpp.writer import DEFAULTS_ATTR, META_TAG, rebase
+from assembly.interop.btcpp.writer import DEFAULTS_ATTR, rebase
 from assembly.language.reader import load_tree
 from assembly.language.validator import known_blackboard_keys
 from behaviours.skill_kit.model_files import UsesModel
@@ -55,6 +55,7 @@ NO_EQUIVALENT = {
     "UnsetBlackboard": "it writes the blackboard; in fvtree only skills write it",
     "Precondition": "use a Guard with a _while script, or a ScriptCondition first in a Sequence",
 }
+INT_PORTS = {(tag, attr) for tag, (_, attr, _) in COUNTED.items()}
 PRECONDITIONS = {
     "_skipIf": "py_trees has no SKIPPED status",
     "_failureIf": "put a ScriptCondition before the node in a Sequence",
@@ -369,61 +370,6 @@ def _rename(node: dict, name: str) -> None:
         node[_kind_key(node)] = name
 
 
-def _metadata(root: XmlNode, file: str) -> dict:
-    """The `<!-- fvtree {json} -->` comment the exporter writes (or the `<?fvtree {json}?>` of
-    files exported before it, which BT.CPP cannot load); empty for files from elsewhere."""
-    found = [(text.strip()[len(META_TAG):], line) for text, line in root.comments
-             if text.strip().startswith(META_TAG + " {")]
-    found += [(data, root.line) for target, data in root.instructions if target == META_TAG]
-    for data, line in found[:1]:
-        try:
-            meta = json.loads(data)
-        except json.JSONDecodeError as exc:
-            raise TreeErrors([TreeError(f"the fvtree metadata is not JSON: {exc.msg}", file, line)]) from None
-        if not isinstance(meta, dict):
-            raise TreeErrors([TreeError("the fvtree metadata must be a JSON object", file, line)])
-        return meta
-    return {}
-
-
-OUR_TYPES = {bt: ours for ours, bt in PORT_TYPES.items()}
-INT_PORTS = {(tag, attr) for tag, (_, attr, _) in COUNTED.items()}
-
-
-def _port_types(x: XmlNode, out: dict[str, str]) -> dict[str, str]:
-    """The type of each `{port}` of a subtree body, from the skill param or decorator field it feeds."""
-    for attr, text in x.attrs.items():
-        ref = PORT_REF.match(text)
-        if ref and x.tag in SKILLS and attr in SKILLS[x.tag].PARAMS:
-            out.setdefault(ref.group(1), SKILLS[x.tag].PARAMS[attr].type)
-        elif ref and (x.tag, attr) in INT_PORTS:
-            out.setdefault(ref.group(1), "int")
-    for child in x.children:
-        _port_types(child, out)
-    return out
-
-
-def _groot_subtree_params(model: XmlNode | None, trees: dict[str, XmlNode], file: str) -> dict[str, dict]:
-    """Subtree ports Groot2 declares in `<TreeNodesModel><SubTree ID=...>`, typed by their `type`
-    or, when they have none, by what each feeds in the subtree's body (a string when it feeds
-    nothing typed)."""
-    out: dict[str, dict] = {}
-    for node in model.children if model is not None else []:
-        if node.tag != "SubTree" or node.attrs.get("ID") not in trees:
-            continue
-        types = _port_types(trees[node.attrs["ID"]], {})
-        params = out[node.attrs["ID"]] = {}
-        for port in (p for p in node.children if p.tag == "input_port" and "name" in p.attrs):
-            declared = OUR_TYPES.get(port.attrs.get("type", ""))
-            decl = params[port.attrs["name"]] = {"type": declared or types.get(port.attrs["name"], "str")}
-            if "default" in port.attrs:
-                try:
-                    decl["default"] = from_port(port.attrs["default"], decl["type"])
-                except PortError as exc:
-                    raise TreeErrors([TreeError(f"default: {exc}", file, port.line, f"<SubTree ID={node.attrs['ID']!r}>")])
-    return out
-
-
 def import_xml(path: str | Path, out: str | Path) -> str:
     """The YAML text of a BT.CPP v4 XML file, to be written at `out` (paths made relative to it),
     validated; TreeErrors listing every XML node without an equivalent, or what validation found."""
@@ -432,7 +378,7 @@ def import_xml(path: str | Path, out: str | Path) -> str:
     if root.tag != "root" or root.attrs.get("BTCPP_format") != "4":
         raise TreeErrors([TreeError("not BehaviorTree.CPP v4 XML: expected <root BTCPP_format=\"4\">", file,
                                     root.line, hint="open and save a v3 file in Groot2 to convert it")])
-    meta = _metadata(root, file)
+    meta = metadata(root, file)
     trees = {t.attrs.get("ID", ""): t for t in root.children if t.tag == "BehaviorTree"}
     model = next((t for t in root.children if t.tag == "TreeNodesModel"), None)
     errors = [TreeError("<include> is not followed: merge the included trees into this file", file, t.line,
@@ -442,13 +388,13 @@ def import_xml(path: str | Path, out: str | Path) -> str:
         errors.append(TreeError(f"no main tree: main_tree_to_execute is {main!r}", file, root.line,
                                 hint=f"trees in this file: {', '.join(trees) or 'none'}"))
         raise TreeErrors(errors)
-    ours, groot = meta.get("subtrees") or {}, _groot_subtree_params(model, trees, file)
-    main_defaults = _default_ports(groot.get(main, {}))
+    ours, groot = meta.get("subtrees") or {}, groot_subtree_params(model, trees, file, INT_PORTS)
+    main_defaults = default_ports(groot.get(main, {}))
     subtrees = {name: ours[name].get("params", {}) if name in ours else groot.get(name, {})
                 for name in trees if name != main}
     out_dir = Path(out).parent
     reader = _Reader(file, out_dir, {n: {p: d.get("type", "str") for p, d in ps.items()} for n, ps in subtrees.items()},
-                     {n: _default_ports(ps) for n, ps in subtrees.items()})
+                     {n: default_ports(ps) for n, ps in subtrees.items()})
     reader.errors = errors
 
     def body(tree: XmlNode, scope: Scope) -> dict | None:
@@ -487,17 +433,6 @@ def _literal_default(text: str) -> Any:
     except PortError:
         return text
     return text if isinstance(value, str) and value.startswith("$") else value
-
-
-def _default_ports(params: dict[str, dict]) -> dict[str, str]:
-    """The port spelling of each declared param default (those that have one)."""
-    out = {}
-    for name, decl in params.items():
-        try:
-            out[name] = to_port(decl["default"]) if "default" in decl else None
-        except PortError:
-            out[name] = None
-    return {k: v for k, v in out.items() if v is not None}
 
 
 def _plain(value: Any) -> Any:

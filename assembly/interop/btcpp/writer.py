@@ -127,6 +127,9 @@ class _Writer:
 
     def _for_each_element(self, node, path, name):
         element = self._element("ForEachElement", name)
+        if node.get("elements") == []:
+            raise self.refuse(node, path, "'elements: []': an empty port means elements left out (every element)",
+                              "leave 'elements' out, or drop the node: it would build nothing")
         if "elements" in node:
             element.set("elements", ";".join(node["elements"]))
         return element
