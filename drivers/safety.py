@@ -10,9 +10,10 @@ components that would cross a face are dropped (or the arm stopped with a fault,
 read, latches a fault instead of escaping, and a non-finite pose or force reading stops the arm. It
 also stops on excess force, and runs a watchdog that stops the arm when the tree stops ticking
 (`kick` not called) or the arm's state goes stale. On real hardware the watchdog also runs in its
-own thread (`start_watchdog`), so it fires even when the tick loop itself hangs, and `kick` feeds
-the controller's own watchdog where the arm has one (the last line of defence if this process
-dies). Faults stay latched until `reset` is called by a person (never automatically); `fault()`
+own thread (`start_watchdog`), so it fires even when the tick loop itself hangs; `kick` and that
+thread feed the controller's own watchdog where the arm has one (the last line of defence if this
+process dies), the thread only while the tree ticks, so a slow tick cannot starve the controller's
+watchdog and a stalled tree is still stopped. Faults stay latched until `reset` is called by a person (never automatically); `fault()`
 reports every latched cause.
 """
 
@@ -21,6 +22,7 @@ from __future__ import annotations
 import logging
 import math
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
@@ -33,6 +35,7 @@ from drivers.protocols import Arm, Clock
 log = logging.getLogger(__name__)
 WORKSPACE_POLICIES = ("clamp", "refuse")
 NO_READING = np.full(6, np.nan)  # what a read returns when the driver never gave a good one
+CONTROLLER_FEED_PERIOD = 0.02  # s of wall time between feeds of the controller's watchdog by the thread
 
 
 @runtime_checkable
@@ -218,6 +221,14 @@ class SafeArm(Guard):
         if not self._causes and self._controller_watchdog:
             self._forward("kick_watchdog", self.inner.kick_watchdog)
 
+    def _feed_controller(self) -> None:
+        """Feed the controller's watchdog from the watchdog thread, so that a slow tick cannot
+        starve it, but only while the tree ticks (within `watchdog_timeout`): a stalled tree is
+        stopped by `supervise`, and then the controller's watchdog fires too."""
+        with self._lock:
+            if not self._causes and self.clock.now() - self._last_kick <= self.limits.watchdog_timeout:
+                self._forward("kick_watchdog", self.inner.kick_watchdog)
+
     def start_watchdog(self, period: float = 0.01) -> None:
         """From the first `kick` on (the tree started ticking), also supervise every `period` s
         from a daemon thread, so the arm stops even when the tick loop hangs and nobody calls
@@ -228,8 +239,12 @@ class SafeArm(Guard):
         self._watchdog_stop.clear()
 
         def watch() -> None:
+            fed = time.monotonic()
             while not self._watchdog_stop.wait(period):
                 self.supervise()
+                if self._controller_watchdog and time.monotonic() - fed >= CONTROLLER_FEED_PERIOD:
+                    fed = time.monotonic()
+                    self._feed_controller()
 
         self._watchdog = threading.Thread(target=watch, name="safety-watchdog", daemon=True)
         self._watchdog.start()

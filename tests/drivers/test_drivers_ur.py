@@ -269,6 +269,29 @@ def test_a_held_twist_stops_at_the_box_floor_on_the_emulated_controller(arm, ur,
         safe.stop_watchdog()
 
 
+def test_a_slow_tick_does_not_starve_the_controller_watchdog_but_a_stalled_tree_stops(ur, clock):
+    """The safety layer's thread feeds the controller's RTDE watchdog (here 0.5 s) while the tree
+    ticks within watchdog_timeout (here 3 s): one tick 1.5 s late stops nothing (before: the
+    controller's watchdog fired after 0.5 s); no tick for longer trips the safety layer, which then
+    stops feeding, and the controller's watchdog fires as well."""
+    limits = SafetyLimits(watchdog_timeout=3.0, stale_after=WALL_SLACK)
+    with connected(ur, clock, watchdog_hz=2.0) as arm:
+        safe = SafeArm(arm, limits, clock)
+        safe.start_watchdog()
+        try:
+            safe.speed_linear(np.array([0.0, 0.005, 0.0, 0.0, 0.0, 0.0]))
+            safe.kick()  # the first tick arms the controller's watchdog
+            assert wait_until(lambda: ur.state()["watchdog_hz"] == 2.0, DEADLINE)
+            late = clock.now() + 1.5
+            assert not wait_until(lambda: clock.now() > late and not ur.state()["program_running"], 1.5)
+            assert ur.state()["program_running"] and safe.fault() is None
+            assert wait_until(lambda: "tree has not ticked" in (safe.fault() or ""), DEADLINE)
+            assert wait_until(lambda: not ur.state()["program_running"], DEADLINE)
+            assert any("RTDE watchdog" in e for _, e in ur.state()["events"])
+        finally:
+            safe.stop_watchdog()
+
+
 def test_the_back_door_refuses_non_finite_loads(ur):
     for line in ("external_wrench 0 0 nan", "external_wrench inf 0 0", "contact_plane nan"):
         reply = backdoor.call(ur.host, 30999, line)
