@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 import secrets
+import socket
 import subprocess
 import sys
 import time
@@ -19,7 +21,7 @@ from pathlib import Path
 import pytest
 from compas_eve import Subscriber, Topic
 from compas_eve.mqtt import MqttTransport
-from mqtt_broker import mqtt_broker_fixture, secure_broker_fixture, wait_for  # noqa: F401 - the fixtures
+from mqtt_broker import free_port, mosquitto, mqtt_broker_fixture, secure_broker_fixture, wait_for  # noqa: F401
 
 from assembly.cli import main
 from assembly.design.link import signing
@@ -306,3 +308,49 @@ def test_a_bad_retained_plan_stops_no_client(mqtt_broker, secure_broker):
     assert client.plan is None and client.dropped and "not a COMPAS Graph" in client.dropped[0]
     cell_side.close()
     client.close()
+
+
+# ---- the README's lab setup, from scratch ----------------------------------------------------------
+def test_the_lab_setup_script_makes_a_working_secured_broker(tmp_path):
+    """examples/secure_broker/make_lab.sh as the README runs it: mosquitto starts on its files, every
+    user logs in over TLS with its credentials file, and the ACL holds."""
+    if mosquitto() is None:
+        pytest.skip("needs mosquitto (apt-get install mosquitto; .ci/run does)")
+    port = free_port()
+    lab = tmp_path / "lab"
+    subprocess.run([str(ROOT / "examples" / "secure_broker" / "make_lab.sh"), str(lab), "127.0.0.1", "A", "B"],
+                   check=True, capture_output=True, timeout=300, env={**os.environ, "PORT": str(port),
+                                                                       "BIND": "127.0.0.1"})
+    config = lab / "mosquitto.conf"
+    if os.getuid() == 0:  # the test's folders are private to root: do not drop to the mosquitto user
+        config.write_text(config.read_text() + "user root\n")
+    broker = subprocess.Popen([str(mosquitto()), "-c", str(config)], stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL)
+    try:
+        wait_for(lambda: socket_open(port), 60, "the lab broker")
+        url = f"mqtts://127.0.0.1:{port}"
+        users = {u: LinkSecurity.load(lab / "credentials" / f"{u}.json") for u in ("coordinator", "designer", "A", "B")}
+        assert set(users["coordinator"].cells) == {"A", "B"} and users["A"].secret == users["coordinator"].cells["A"]
+        designer, seen = recorder(url, "lab-designer", users["designer"], "fvtree/A/status", "fvtree/B/status")
+        time.sleep(0.5)
+        a = LinkTransport(url, "lab-a", users["A"])
+        a.send("fvtree/A/status", {"status": "mine"})
+        a.send("fvtree/B/status", {"status": "forged"})
+        wait_for(lambda: seen["fvtree/A/status"], 60, "A's status")
+        assert a.close() == 0
+        time.sleep(0.5)
+        assert seen["fvtree/B/status"] == []
+        with pytest.raises(LinkError, match="not authorised"):
+            LinkTransport(url, "lab-nobody", LinkSecurity(username="A", password="guess", ca=lab / "ca.crt"))
+        designer.close()
+    finally:
+        broker.kill()
+        broker.wait(timeout=30)
+
+
+def socket_open(port: int) -> bool:
+    try:
+        with socket.create_connection(("127.0.0.1", port), timeout=0.5):
+            return True
+    except OSError:
+        return False
