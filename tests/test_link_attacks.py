@@ -15,6 +15,7 @@ import secrets
 import socket
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -184,6 +185,7 @@ def test_an_update_outside_the_workspace_is_refused_and_nothing_moves(secure_bro
     assert model.graph.nodes["E2"]["pick_pose"] == DesignModel.load(ROOT / "trees/design/two_bays.json").graph.nodes[
         "E2"]["pick_pose"]
     assert not [r for r in caplog.records if "clamped" in r.getMessage()]  # the arm was never sent out of the box
+    assert json.loads((run_dir / "summary.json").read_text())["safety_clamps"] == 0
     assert not any(e["event"] == "design_updated" for e in events(run_dir))
     designer.close()
 
@@ -354,3 +356,34 @@ def socket_open(port: int) -> bool:
             return True
     except OSError:
         return False
+
+
+def test_a_coordinated_fvtree_run_whose_claim_is_taken_back_ends_fault_at_once(mqtt_broker, tmp_path):
+    """A whole `fvtree run --coordinated` (paced to the wall clock, so E1 takes minutes): the
+    coordinator takes A's claim back as soon as it is granted; the run stops FAULT with the reason
+    within a few seconds, with E1 neither placing nor placed."""
+    keys = {"A": secrets.token_bytes(32)}
+    clock = ManualClock()
+    coordinator = Coordinator(DesignModel.load(ROOT / "trees" / "design" / "two_bays.json"), mqtt_broker.url,
+                              lease=10.0, clock=clock, security=LinkSecurity(cells=keys)).start()
+
+    def take_back() -> None:
+        wait_for(lambda: any(e["what"] == "granted" for e in coordinator.log), 120, "A's grant")
+        clock.advance(60.0)
+    threading.Thread(target=take_back, daemon=True).start()
+    started = time.monotonic()
+    code = main(["run", str(ROOT / "trees" / "assembly.yaml"), "--bridge", mqtt_broker.url, "--cell-name", "A",
+                 "--coordinated", "--credentials", str(cell_credentials(tmp_path, "A", keys["A"])), "--speed",
+                 "realtime", "--runs-dir", str(tmp_path / "runs"), "--no-plots", "--no-record"])
+    assert code == 3  # FAULT
+    assert time.monotonic() - started < 60  # the element would take minutes: stopped at once
+    run_dir = next((tmp_path / "runs").iterdir())
+    log = events(run_dir)
+    halted = next(e for e in log if e["event"] == "halted")  # the stop policy's halt: tree, arm, gripper
+    assert halted["status"] == "FAULT" and "design link: the coordinator refused renew: no live claim" in halted[
+        "message"]
+    assert not any(e["event"] in ("placing", "placed") for e in log)
+    assert not DesignModel.load(run_dir / "asbuilt.json").is_placed("E1")
+    summary = json.loads((run_dir / "summary.json").read_text())
+    assert summary["status"] == "FAULT" and "refused renew" in summary["message"]
+    coordinator.stop()
