@@ -8,6 +8,7 @@ where the broker lets anything through, because it is signed with a per-cell sec
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import logging
 import os
@@ -20,8 +21,8 @@ import time
 from pathlib import Path
 
 import pytest
+from compas.datastructures import Graph
 from compas_eve import Subscriber, Topic
-from compas_eve.mqtt import MqttTransport
 from mqtt_broker import free_port, mosquitto, mqtt_broker_fixture, secure_broker_fixture, wait_for  # noqa: F401
 
 from assembly.cli import main
@@ -123,11 +124,26 @@ def test_a_readable_credentials_file_is_refused(tmp_path):
 
 
 def test_fvtree_coordinate_on_a_refusing_broker_fails_clearly(secure_broker, tmp_path):
+    wrong = tmp_path / "coordinator.json"
+    wrong.write_text(json.dumps({"username": "coordinator", "password": "wrong-password-456",
+                                 "cells": {"A": secrets.token_hex(32)}}))
+    wrong.chmod(0o600)
     done = subprocess.run([sys.executable, "-m", "assembly.cli", "coordinate", str(SIX_BAYS), "--broker",
-                           secure_broker.url, "--state", str(tmp_path / "state.json"), "--until-done"],
-                          capture_output=True, text=True, timeout=120, cwd=ROOT, check=False)
+                           secure_broker.url, "--credentials", str(wrong), "--state", str(tmp_path / "state.json"),
+                           "--until-done"], capture_output=True, text=True, timeout=120, cwd=ROOT, check=False)
     assert done.returncode == 2, done.stderr
     assert "refused the connection" in done.stderr and "coordinating" not in done.stderr and not done.stdout
+    assert "wrong-password-456" not in done.stderr
+
+
+def test_a_coordinated_build_without_signing_secrets_is_refused_unless_asked_for(mqtt_broker, tmp_path, capsys):
+    done = subprocess.run([sys.executable, "-m", "assembly.cli", "coordinate", str(SIX_BAYS), "--broker",
+                           mqtt_broker.url, "--state", str(tmp_path / "state.json"), "--until-done"],
+                          capture_output=True, text=True, timeout=120, cwd=ROOT, check=False)
+    assert done.returncode == 2 and "no signing secrets of the cells" in done.stderr and "--unsigned" in done.stderr
+    code = main(["run", str(ROOT / "trees" / "assembly.yaml"), "--bridge", mqtt_broker.url, "--coordinated",
+                 "--runs-dir", str(tmp_path / "runs"), "--no-plots", "--no-record"])
+    assert code == 2 and "no signing secret" in capsys.readouterr().err
 
 
 # ---- ACLs: a cell publishes only on its own topics, only the coordinator on its own -------------
@@ -279,25 +295,25 @@ def test_a_bad_retained_plan_stops_no_client(mqtt_broker, secure_broker):
     intruder = LinkTransport(secure_broker.url, "t-bad-plan", LinkSecurity.load(secure_broker.credentials("intruder")))
     intruder.send_raw("fvtree/A/plan", bad, retain=True)
     assert intruder.close() == 0
+    spec = importlib.util.spec_from_file_location("design_client", ROOT / "examples" / "design_client.py")
+    design_client = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(design_client)
     designer = LinkSecurity.load(secure_broker.credentials("designer"))
-    plain = MqttTransport("127.0.0.1", secure_broker.port)  # compas_eve's own, as Grasshopper uses it
-    plain.client.username_pw_set(designer.username, designer.password)  # (connects before: set, then reconnect)
-    plain.client.reconnect()
-    heard: list = []
-    for leaf in ("plan", "status"):
-        Subscriber(Topic(f"fvtree/A/{leaf}"), callback=heard.append, transport=plain).subscribe()
+    plain = design_client.LoginTransport(secure_broker.url, designer.username, designer.password)  # compas_eve's ...
+    plain.client.suppress_exceptions = False  # ... with a login, and as unprotected as compas_eve's own
+    heard: dict[str, list] = {"plan": [], "status": []}
+    for leaf, messages in heard.items():
+        Subscriber(Topic(f"fvtree/A/{leaf}"), callback=messages.append, transport=plain).subscribe()
     wait_for(lambda: plain._is_connected, 60, "the plain client")
     time.sleep(0.5)
     a = LinkTransport(secure_broker.url, "t-a-status", LinkSecurity.load(secure_broker.credentials("A")))
-    a.send("fvtree/A/status", {"element": "E1", "status": "picking"})
-    wait_for(lambda: heard, 60, "the cell's status on a plain compas_eve client")
-    assert heard[0]["status"] == "picking"
+    a.send("fvtree/A/status", {"element": "E1", "status": "picking-after-bad-plan"})
+    wait_for(lambda: any(m["status"] == "picking-after-bad-plan" for m in heard["status"]), 60,
+             "the cell's status on a plain compas_eve client")
+    assert all(isinstance(p, Graph) for p in heard["plan"])  # a run's real plan, if any: never the bad one
     a.close()
     plain.close()
 
-    spec = __import__("importlib.util").util.spec_from_file_location("design_client", ROOT / "examples" / "design_client.py")
-    design_client = __import__("importlib.util").util.module_from_spec(spec)
-    spec.loader.exec_module(design_client)
     raw = LinkTransport(mqtt_broker.url, "t-bad-open")
     raw.send_raw("fvtree/deaf/plan", bad, retain=True)
     assert raw.close() == 0

@@ -11,6 +11,7 @@ import time
 from pathlib import Path
 
 from assembly.cli.args import POSITIVE, Subparsers
+from fvfiles.errors import FvtreeError
 
 
 def add_link_options(run: argparse.ArgumentParser) -> None:
@@ -24,6 +25,9 @@ def add_link_options(run: argparse.ArgumentParser) -> None:
                      help="with --bridge: take each element from the design's coordinator (fvtree coordinate), "
                           "sharing the design with other cells")
     add_security_options(run)
+    run.add_argument("--unsigned", action="store_true",
+                     help="with --coordinated: take part without a signing secret (any client on the broker could "
+                          "pass for this cell or its coordinator: a private broker only)")
     run.add_argument("--link-lost-after", type=POSITIVE, default=10.0, metavar="SECONDS",
                      help="with --coordinated: a link to the broker lost this long stops the run (FAULT; default: 10)")
 
@@ -50,6 +54,9 @@ def add_commands(sub: Subparsers) -> None:
                    help="save the coordinated model here after every change, and resume from it (default: "
                         "DESIGN's name + .coordinated.json in the current directory)")
     c.add_argument("--until-done", action="store_true", help="exit once every element is placed")
+    c.add_argument("--unsigned", action="store_true",
+                   help="run without the cells' signing secrets (any client on the broker could pass for a cell: "
+                        "a private broker only)")
     c.set_defaults(func=cmd_coordinate)
 
     d = sub.add_parser("design", help="convert a design between node-link JSON and COMPAS JSON")
@@ -65,6 +72,11 @@ def cmd_coordinate(args) -> int:
 
     state = Path(args.state or f"{Path(args.design).stem}.coordinated.json")
     security = LinkSecurity.load(args.credentials, ca=args.tls_ca, cert=args.tls_cert, key=args.tls_key)
+    if not security.cells and not args.unsigned:
+        raise FvtreeError("no signing secrets of the cells: any client on the broker could claim elements and "
+                          "report placements in a cell's name", args.credentials or "--credentials",
+                          hint="give a credentials file with 'cells' (examples/secure_broker/make_lab.sh makes one), "
+                               "or --unsigned on a private broker")
     coordinator = Coordinator(load_state(Path(args.design), state), args.broker, args.lease, state,
                               security=security)  # LinkError (exit 2) when the broker refuses or is down
     signed = f"requests signed by {len(security.cells)} cells" if security.cells else "requests NOT signed"

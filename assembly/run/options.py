@@ -19,7 +19,8 @@ class LinkOptions:
     """The live design link over MQTT (`--bridge`): the broker, the name this cell goes by on it
     (default: the tree's name), whether a coordinator hands out the elements, the credentials
     file (login, TLS files, signing secret; else the environment: assembly.design.link.security),
-    TLS files given on the command line, and how long a coordinated cell may lose the link."""
+    TLS files given on the command line, how long a coordinated cell may lose the link, and whether
+    it may take part in a coordinated build without a signing secret."""
 
     url: str
     cell_name: str | None = None
@@ -29,6 +30,7 @@ class LinkOptions:
     tls_cert: Path | None = None
     tls_key: Path | None = None
     lost_after: float = 10.0  # s
+    unsigned: bool = False  # coordinated without a signing secret (a private broker only)
 
 
 @dataclass(frozen=True)

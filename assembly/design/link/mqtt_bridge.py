@@ -28,7 +28,7 @@ from typing import Any
 from assembly.design.link import updates
 from assembly.design.link.cell_claims import ClaimClient
 from assembly.design.link.compas_data import LIVE_STATUSES, pose_to_frame, to_graph
-from assembly.design.link.security import LinkSecurity
+from assembly.design.link.security import ENV_SECRET, LinkError, LinkSecurity
 from assembly.design.link.topics import CellTopics
 from assembly.design.link.transport import LinkTransport
 from assembly.design.link.workspace import Workspace
@@ -223,4 +223,8 @@ def attach_options(bridge: Any, options: Any, cell: str, cell_file: str) -> Mqtt
     loaded and checked, and the workspace of `cell_file` (the run's cell) for design updates."""
     security = LinkSecurity.load(options.credentials, ca=options.tls_ca, cert=options.tls_cert, key=options.tls_key,
                                  lost_after=options.lost_after)
+    if options.coordinated and security.secret is None and not options.unsigned:
+        raise LinkError("no signing secret: another client on the broker could pass for this cell or hand it "
+                        "forged grants", str(options.credentials or "--credentials"),
+                        hint=f"give 'secret' in the credentials file or {ENV_SECRET}, or --unsigned on a private broker")
     return attach(bridge, options.url, cell, options.coordinated, security, Workspace.of_cell(cell_file))
