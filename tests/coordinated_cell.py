@@ -3,7 +3,7 @@ the real design bridge, MQTT link, claim client and for_each_element, with each 
 scripted (a few ticks of 20 ms, then placing and placed at the element's pick pose raised 1 m).
 
     python tests/coordinated_cell.py mqtt://127.0.0.1:PORT CELL RUN_DIR [--die-at ELEMENT]
-        [--credentials FILE] [--build-ticks N]
+        [--credentials FILE] [--build-ticks N] [--lost-after SECONDS]
 
 --die-at: exit abruptly (no goodbye, no renewals) once ELEMENT is being built.
 --credentials: log in and sign as the file says (assembly.design.link.security).
@@ -87,11 +87,12 @@ def main() -> int:
     p.add_argument("--die-at")
     p.add_argument("--credentials")
     p.add_argument("--build-ticks", type=int, default=BUILD_TICKS)
+    p.add_argument("--lost-after", type=float, default=10.0, help="s of lost link before the cell stops")
     args = p.parse_args()
     args.run_dir.mkdir(parents=True, exist_ok=True)
     bridge = DesignBridge(DesignModel.load(DESIGN), args.run_dir / "asbuilt.json", args.run_dir / "events.jsonl")
     try:
-        attach(bridge, args.url, args.cell, coordinated=True, security=LinkSecurity.load(args.credentials))
+        attach(bridge, args.url, args.cell, coordinated=True, security=LinkSecurity.load(args.credentials, lost_after=args.lost_after))
     except LinkError as exc:
         print(exc, file=sys.stderr)
         return 2

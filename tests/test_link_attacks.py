@@ -23,7 +23,7 @@ from pathlib import Path
 import pytest
 from compas.datastructures import Graph
 from compas_eve import Subscriber, Topic
-from mqtt_broker import free_port, mosquitto, mqtt_broker_fixture, secure_broker_fixture, wait_for  # noqa: F401
+from mqtt_broker import Broker, free_port, mosquitto, mqtt_broker_fixture, secure_broker_fixture, wait_for  # noqa: F401
 
 from assembly.cli import main
 from assembly.design.link import signing
@@ -403,3 +403,24 @@ def test_a_coordinated_fvtree_run_whose_claim_is_taken_back_ends_fault_at_once(m
     summary = json.loads((run_dir / "summary.json").read_text())
     assert summary["status"] == "FAULT" and "refused renew" in summary["message"]
     coordinator.stop()
+
+
+def test_a_coordinated_cell_that_loses_the_broker_for_longer_than_the_limit_stops(tmp_path):
+    (tmp_path / "broker").mkdir()
+    broker = Broker(tmp_path / "broker").start()  # its own: this test kills it
+    try:
+        keys = {"A": secrets.token_bytes(32)}
+        coordinator = Coordinator(DesignModel.load(SIX_BAYS), broker.url, lease=600.0,
+                                  security=LinkSecurity(cells=keys)).start()
+        a = cell(broker.url, "A", tmp_path / "A", cell_credentials(tmp_path, "A", keys["A"]), "--build-ticks",
+                 "100000", "--lost-after", "2")
+        wait_for(lambda: any(e["what"] == "granted" for e in coordinator.log), 120, "A's grant")
+        broker.stop()
+        out, _ = a.communicate(timeout=120)
+        assert a.returncode == 3, out
+        fault = next(e for e in events(tmp_path / "A") if e["event"] == "fault")
+        assert "link to the broker" in fault["message"] and "(limit 2 s)" in fault["message"]
+        assert not any(e["event"] in ("placing", "placed") for e in events(tmp_path / "A"))
+        coordinator.transport.client.loop_stop()
+    finally:
+        broker.stop()
