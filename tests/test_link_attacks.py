@@ -28,6 +28,7 @@ from mqtt_broker import Broker, free_port, mosquitto, mqtt_broker_fixture, secur
 from assembly.cli import main
 from assembly.design.link import signing
 from assembly.design.link.coordinator import Coordinator
+from assembly.design.link.mqtt_bridge import MqttLink
 from assembly.design.link.security import LinkError, LinkSecurity
 from assembly.design.link.transport import LinkTransport
 from assembly.design.model import DesignModel
@@ -422,5 +423,26 @@ def test_a_coordinated_cell_that_loses_the_broker_for_longer_than_the_limit_stop
         assert "link to the broker" in fault["message"] and "(limit 2 s)" in fault["message"]
         assert not any(e["event"] in ("placing", "placed") for e in events(tmp_path / "A"))
         coordinator.transport.client.loop_stop()
+    finally:
+        broker.stop()
+
+
+def test_a_login_revoked_mid_run_is_the_links_fault(tmp_path):
+    """The broker restarts with A's password changed (an account revoked): A's reconnect is refused
+    and its link names the fault, which the run's stop policy turns into FAULT."""
+    (tmp_path / "broker").mkdir()
+    broker = Broker(tmp_path / "broker", secure=True).start()
+    try:
+        link = MqttLink(broker.url, "A", security=LinkSecurity.load(broker.credentials("A")))
+        assert link.fault() is None
+        link.transport.client.reconnect_delay_set(0.05, 0.2)
+        broker.stop()
+        subprocess.run(["mosquitto_passwd", "-b", str(broker.directory / "passwd"), "A", "revoked-" + secrets.token_hex(8)],
+                       check=True, capture_output=True, timeout=60)
+        broker.start()
+        reason = wait_for(link.fault, 60, "the refused reconnect")
+        assert "refused the connection: Connection Refused: not authorised" in reason
+        assert broker.users["A"]["password"] not in reason
+        link.transport.client.loop_stop()
     finally:
         broker.stop()
