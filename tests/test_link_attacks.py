@@ -208,6 +208,7 @@ def test_an_update_outside_the_workspace_is_refused_and_nothing_moves(secure_bro
 
 
 # ---- 3, 4. impersonation, forged placed reports, grants and plans (no ACLs: the open broker) ----
+@pytest.mark.slow  # two cell processes / a cell process and a broker killed
 def test_forged_claims_grants_reports_and_plans_are_refused_without_acls(mqtt_broker, tmp_path):
     keys = {c: secrets.token_bytes(32) for c in ("A", "B")}
     coordinator = Coordinator(DesignModel.load(SIX_BAYS), mqtt_broker.url, lease=600.0,
@@ -406,6 +407,7 @@ def test_a_coordinated_fvtree_run_whose_claim_is_taken_back_ends_fault_at_once(m
     coordinator.stop()
 
 
+@pytest.mark.slow  # two cell processes / a cell process and a broker killed
 def test_a_coordinated_cell_that_loses_the_broker_for_longer_than_the_limit_stops(tmp_path):
     (tmp_path / "broker").mkdir()
     broker = Broker(tmp_path / "broker").start()  # its own: this test kills it
