@@ -18,6 +18,8 @@ from mqtt_broker import mqtt_broker_fixture, wait_for  # noqa: F401 - the fixtur
 from test_mqtt_bridge import BAD, ScriptedRun
 
 from assembly.design.link import mqtt_bridge, signing
+from assembly.design.link.cell_claims import ClaimClient
+from assembly.design.link.compas_data import to_graph
 from assembly.design.link.coordinator import Coordinator
 from assembly.design.link.security import LinkSecurity
 from assembly.design.link.transport import LinkTransport
@@ -105,4 +107,18 @@ def test_a_plain_compas_eve_client_reads_everything_fvtree_publishes(mqtt_broker
     assert len(heard["fvtree/plain/errors"]) >= 9 and heard["fvtree/plain/conflicts"]
     assert heard[f"{design}/cells/X"][0]["element"] == "E1" and heard[f"{design}/log"]
     raw.close()
+    transport.close()
+
+
+def test_a_cells_claim_client_drops_a_bad_plan_and_reads_the_next(mqtt_broker):
+    """fvtree's own subscriber of the coordinator's plan checks it before decoding: the retained
+    plan that stops an unguarded compas_eve client, and other junk, are dropped; a good plan reads."""
+    transport = LinkTransport(mqtt_broker.url, "t-claims-plan")
+    claims = ClaimClient(transport, "X", "six_bays")
+    for bad in (json.dumps({"dtype": "compas.datastructures/Graph", "data": {"not": "a graph"}}).encode(),
+                b'{"data": {"node": {"x": 1}, "edge": []}}', b"[]", b"\xff", b"{" * 100_000):
+        assert claims._read_plan(bad) is None
+    good = transport.codec.encode(to_graph(DesignModel.load(ROOT / "trees" / "design" / "six_bays.json")))
+    assert isinstance(claims._read_plan(good.encode() if isinstance(good, str) else good), Graph)
+    claims.close()
     transport.close()
