@@ -61,6 +61,8 @@ def test_the_published_schema_is_current_and_accepts_the_shipped_design():
     (2, "pick_pose", [0, 0, float("nan"), 0, 0, 0], "field 'pick_pose' item 2 must be number (finite)"),
     (0, "span", 0, "field 'span' must be above 0"),
     (0, "origin", "here", "field 'origin' must be array"),
+    (2, "kind", [], "kind must be 'element' or 'plate', got []"),  # fuzzing: was a TypeError
+    (2, "pick_pose", [0.3, -0.45, 0.02, 1e308, 0, 0], "field 'pick_pose' item 3 must be at most 10"),  # was a math error at run time
 ])
 def test_design_fields_are_checked_by_the_schema_with_the_line(tmp_path, node, field, value, message):
     data = json.loads(DESIGN_FILE.read_text())

@@ -34,7 +34,9 @@ def _vector(length: int, doc: str, items: dict | None = None) -> dict:
             "description": doc}
 
 
-_POSE = _vector(6, "[x, y, z, rx, ry, rz] in the robot base frame (m, rotation vector in rad)")
+# Within 10 m and 10 rad: beyond any arm's reach, and far from where the pose arithmetic overflows.
+_POSE = _vector(6, "[x, y, z, rx, ry, rz] in the robot base frame (m, rotation vector in rad)",
+                {"type": "number", "minimum": -10, "maximum": 10})
 _POSITIVE = {"type": "number", "exclusiveMinimum": 0}
 # JSON Schema of each kind of design node: the single source of what a design may hold (the
 # checks below read it, `design_schema()` publishes it as trees/design/design.schema.json).
@@ -95,9 +97,9 @@ def design_schema() -> dict:
 def node_problems(node: dict) -> list[tuple[str, str | None, str | None]]:
     """(message, field, hint) for each way a design node (with its id and kind) breaks its schema."""
     kind = node.get("kind")
-    if kind not in NODE_SCHEMAS:
+    if not isinstance(kind, str) or kind not in NODE_SCHEMAS:
         return [(f"node {node.get('id')!r}: kind must be 'element' or 'plate', got {short_json(kind)}", "kind",
-                 did_you_mean(kind, NODE_SCHEMAS))]
+                 did_you_mean(kind, NODE_SCHEMAS) if isinstance(kind, str) else None)]
     return list(object_problems(node, NODE_SCHEMAS[kind], f"{kind} {node.get('id')!r}"))
 
 
