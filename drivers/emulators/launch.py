@@ -1,5 +1,9 @@
 """Start an emulator as a child process, wait until it listens, and always terminate it - for
-tests, the drivers benchmark and `python -m drivers.emulators`."""
+tests, the drivers benchmark and `python -m drivers.emulators`.
+
+An emulator stands in for a device with a processor of its own (a UR controller, a gripper, a
+camera): where the system allows it, it runs at a higher CPU priority, so that a busy machine slows
+the cell's software, as it would on a real cell, and not the emulated device's own clock."""
 
 from __future__ import annotations
 
@@ -9,6 +13,8 @@ import subprocess
 import sys
 import tempfile
 import time
+
+DEVICE_NICENESS = -10  # the emulated device's priority where allowed (root, or CAP_SYS_NICE)
 
 
 class EmulatorProcess:
@@ -24,6 +30,10 @@ class EmulatorProcess:
         env = dict(os.environ, PYTHONUNBUFFERED="1")
         self.proc = subprocess.Popen([sys.executable, "-m", self.module, *self.args],
                                      stdout=subprocess.PIPE, stderr=self._log, env=env)
+        try:
+            os.setpriority(os.PRIO_PROCESS, self.proc.pid, DEVICE_NICENESS)
+        except (PermissionError, OSError):
+            pass  # an unprivileged user keeps the normal priority: the emulator may then lag under load
         deadline = time.monotonic() + self.ready_timeout
         while time.monotonic() < deadline:
             ready, _, _ = select.select([self.proc.stdout], [], [], 0.1)
