@@ -58,6 +58,7 @@ class SafetyLimits:
     watchdog_timeout: float = 0.5  # s without a kick (tree tick) before the arm is stopped
     stale_after: float = 0.1  # s without fresh arm state before the arm is stopped
     out_of_workspace: str = "clamp"  # clamp: pull targets into the box; refuse: stop and fault
+    reach: float | None = None  # m from the base origin the TCP can reach (UR5e 0.85, UR10e 1.3); None: the box only
 
     def __post_init__(self):
         lo, hi = _corner("workspace_min", self.workspace_min), _corner("workspace_max", self.workspace_max)
@@ -70,11 +71,36 @@ class SafetyLimits:
             if value <= 0:
                 raise ValueError(f"safety limit {name} must be positive, got {value!r}")
             object.__setattr__(self, name, float(value))
+        if self.reach is not None:
+            if isinstance(self.reach, bool) or not isinstance(self.reach, (int, float)) \
+                    or not math.isfinite(self.reach) or self.reach <= 0:
+                raise ValueError(f"safety limit reach must be a positive number of metres, got {self.reach!r}")
+            object.__setattr__(self, "reach", float(self.reach))
         if self.out_of_workspace not in WORKSPACE_POLICIES:
             raise ValueError(f"out_of_workspace must be one of {WORKSPACE_POLICIES}, "
                              f"got {self.out_of_workspace!r}")
         object.__setattr__(self, "workspace_min", lo)
         object.__setattr__(self, "workspace_max", hi)
+
+    def within(self, position: np.ndarray) -> np.ndarray:
+        """`position` pulled into the box and, with a `reach`, onto the sphere of that radius about
+        the base origin (then into the box again: the two are convex, the result lies in both when
+        they meet)."""
+        inside = np.clip(position, self.workspace_min, self.workspace_max)
+        if self.reach is not None and float(np.linalg.norm(inside)) > self.reach:
+            inside = np.clip(inside * (self.reach / float(np.linalg.norm(inside))), self.workspace_min, self.workspace_max)
+        return inside
+
+    def reach_problem(self, position: np.ndarray) -> str | None:
+        """Why `position` (m, base frame) is out of the box or the reach, or None."""
+        axes = [f"{'xyz'[i]} {position[i]:g} not in [{self.workspace_min[i]:g}, {self.workspace_max[i]:g}]"
+                for i in range(3) if not self.workspace_min[i] <= position[i] <= self.workspace_max[i]]
+        if axes:
+            return ", ".join(axes)
+        distance = float(np.linalg.norm(position))
+        if self.reach is not None and distance > self.reach:
+            return f"{distance:.3f} m from the base, beyond the arm's reach {self.reach:g} m"
+        return None
 
     @classmethod
     def from_dict(cls, d: dict) -> SafetyLimits:
@@ -139,12 +165,13 @@ class SafeArm(Guard):
             if checked is None:
                 return
             goal, speed = checked
-            clipped = np.clip(goal[:3], self.limits.workspace_min, self.limits.workspace_max)
+            clipped = self.limits.within(goal[:3])
             if not np.allclose(clipped, goal[:3]):  # beyond rounding: refuse, or clamp and count
                 if self.limits.out_of_workspace == "refuse":
                     self.trip(f"workspace: target {np.round(goal[:3], 4).tolist()} is outside "
                               f"the box {self.limits.workspace_min.tolist()} .. "
-                              f"{self.limits.workspace_max.tolist()}")
+                              f"{self.limits.workspace_max.tolist()}"
+                              + (f" or the arm's reach {self.limits.reach:g} m" if self.limits.reach else ""))
                     return
                 self.clamped += 1
                 log.warning("target %s outside the workspace, clamped to %s", goal[:3], clipped)

@@ -122,3 +122,16 @@ def test_a_cells_claim_client_drops_a_bad_plan_and_reads_the_next(mqtt_broker):
     assert isinstance(claims._read_plan(good.encode() if isinstance(good, str) else good), Graph)
     claims.close()
     transport.close()
+
+
+def test_an_update_inside_the_box_but_beyond_the_arms_reach_is_refused():
+    """ur_robotiq.yaml's box corners lie beyond a UR5e's 0.85 m: the reach is checked too."""
+    from assembly.design.link.workspace import Workspace
+
+    workspace = Workspace.of_cell("ur_robotiq")
+    inside = {"id": "E2", "pick_pose": [0.3, -0.45, 0.2, 0.0, 0.0, 0.0]}
+    beyond = {"id": "E2", "pick_pose": [0.55, -0.6, 0.3, 0.0, 0.0, 0.0]}
+    assert workspace.problem(inside) is None
+    assert workspace.problem(beyond) == (
+        "E2: pick_pose [0.55, -0.6, 0.3] is outside the cell's workspace (0.867 m from the base, beyond the "
+        f"arm's reach 0.85 m; safety limits of {workspace.source})")

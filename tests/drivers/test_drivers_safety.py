@@ -222,3 +222,17 @@ def test_a_scaled_wall_clock_runs_cell_time_faster_and_ticks_on_its_boundaries()
     assert time.monotonic() - started >= 10 * 0.1 / 20.0
     with pytest.raises(ValueError, match="positive"):
         WallClock(0.1, time_scale=0.0)
+
+
+def test_a_target_beyond_the_arms_reach_is_pulled_onto_it_or_refused():
+    safe, arm, clock = make(reach=0.6)
+    safe.move_linear(np.array([0.5, 0.0, 0.5, np.pi, 0, 0]), 0.2)  # 0.71 m from the base, inside the box
+    run(safe, arm, clock, 5.0)
+    assert np.linalg.norm(arm.pose()[:3]) == pytest.approx(0.6) and safe.clamped == 1
+    safe, arm, clock = make(reach=0.6, out_of_workspace="refuse")
+    safe.move_linear(np.array([0.5, 0.0, 0.5, np.pi, 0, 0]), 0.2)
+    assert "or the arm's reach 0.6 m" in safe.fault() and np.allclose(arm.pose(), HOME)
+    assert SafetyLimits(**BOX, reach=0.6).reach_problem(np.array([0.5, 0.0, 0.5])) == \
+        "0.707 m from the base, beyond the arm's reach 0.6 m"
+    with pytest.raises(ValueError, match="reach must be a positive number"):
+        SafetyLimits(reach=-1.0)

@@ -1,6 +1,7 @@
 """Design updates checked against the cell that would build them: every pose an update sends (where
 an element is picked, where it is planned to stand) must lie inside the cell's workspace box, the
-`safety.workspace_min` .. `workspace_max` of its cell file that `drivers.safety.SafeArm` enforces.
+`safety.workspace_min` .. `workspace_max` of its cell file that `drivers.safety.SafeArm` enforces,
+and within the arm's `safety.reach` of the base when the cell file gives it.
 An update that fails is refused when it arrives, with the reason; it never reaches a motion, where
 the safety layer would clamp it into the box (or, with `out_of_workspace: refuse`, stop the cell)."""
 
@@ -20,8 +21,7 @@ POSES = ("pick_pose", "planned_pose")  # what an update may set; as-built poses 
 class Workspace:
     """The box the cell's arm may reach (metres, robot base frame) and the cell file it is from."""
 
-    low: np.ndarray
-    high: np.ndarray
+    limits: SafetyLimits
     source: str = "<cell>"
 
     @classmethod
@@ -32,7 +32,7 @@ class Workspace:
             limits = SafetyLimits.from_dict(section(path, read_cell_file(path), "safety"))
         except (TypeError, ValueError) as exc:
             raise CellFileError(path, "safety", str(exc)) from None
-        return cls(limits.workspace_min, limits.workspace_max, str(path))
+        return cls(limits, str(path))
 
     def problem(self, element: dict) -> str | None:
         """Why the element's poses are out of this cell's reach, or None."""
@@ -41,10 +41,8 @@ class Workspace:
             if pose is None:
                 continue
             position = np.asarray(pose[:3], float)
-            if np.all(position >= self.low) and np.all(position <= self.high):
-                continue
-            axes = [f"{'xyz'[i]} {position[i]:g} not in [{self.low[i]:g}, {self.high[i]:g}]"
-                    for i in range(3) if not self.low[i] <= position[i] <= self.high[i]]
-            return (f"{element.get('id')}: {key} {np.round(position, 4).tolist()} is outside the cell's workspace "
-                    f"({', '.join(axes)}; safety box of {self.source})")
+            problem = self.limits.reach_problem(position)
+            if problem is not None:
+                return (f"{element.get('id')}: {key} {np.round(position, 4).tolist()} is outside the cell's workspace "
+                        f"({problem}; safety limits of {self.source})")
         return None
