@@ -198,6 +198,30 @@ def test_a_fault_through_the_cli_exits_3_and_is_in_the_log_and_the_summary(tmp_p
     assert summary["status"] == "FAULT" and "overcurrent" in summary["gripper_fault"]
 
 
+def test_a_wall_clock_cell_waits_for_fresh_perception_before_the_first_tick():
+    """The first frames after start-up are from before the run (calibration, setting the tree up):
+    the runner waits for fresh ones instead of tripping the first tick on them."""
+    import time
+
+    from drivers.clock import WallClock
+
+    cell = mock_cell()
+    cell.clock = cell.arm.clock = cell.arm.inner.clock = cell.gripper.clock = WallClock(1 / 30)
+    old = cell.clock.now() - 10.0  # frames from before the run
+    fresh_from = time.monotonic() + 0.5
+
+    def sense() -> dict:
+        stamp = cell.clock.now() if time.monotonic() > fresh_from else old
+        return {f: touch(f, stamp=stamp) for f in ("left", "right")}
+
+    doc = load_tree(text="version: 1\nname: t\nroot: {skill: move_to, name: m, params: {offset: [0, 0, 0.001]}}\n")
+    runner = Runner(build(doc), cell, sense=sense, supervision=Supervision())
+    runner.setup()
+    assert time.monotonic() > fresh_from  # setup waited
+    result = runner.run()
+    assert result.status == "SUCCESS", result.message
+
+
 def test_supervision_settings_come_from_the_cell_file(tmp_path):
     assert Supervision.of_cell("sim") == Supervision()
     cell = tmp_path / "cell.yaml"

@@ -111,6 +111,8 @@ class Runner:
         """Set up every node with the cell, the design model and the design bridge."""
         design = self.tree.document.design if self.bridge is None else self.bridge.model
         self.behaviour_tree.setup(cell=self.cell, design=design, bridge=self.bridge)
+        if self.supervisor is not None and not self.cell.simulated:
+            self.supervisor.await_fresh_perception(self.perception.sense)
         self._set_up = True
 
     @property

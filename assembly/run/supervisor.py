@@ -13,11 +13,16 @@ Unhealthy perception is configurable per cell (`unhealthy_perception` in the cel
 skills: a skill that reads /fv/left or /fv/right (declared in its READS) stops arm and gripper
 and fails with the reason (`ProgramSkill.update`), so the tree may go on (a fallback, a move
 home), while skills that need no touch run on.
+
+On a wall-clock cell the runner first waits (up to 5 s) for fresh perception, so that frames from
+before the run do not stop its first tick; every run's worst tick gap and data ages, beside their
+limits, end up in its summary (`Margins`).
 """
 
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, fields
 from pathlib import Path
 
@@ -30,9 +35,12 @@ from assembly.run.tip import Tip
 from behaviours.skill_kit import keys
 from drivers.cell import Cell
 from drivers.cell_file import CellFileError, read_cell_file, resolve_cell_path, section
+from drivers.protocols import PerceptionSource
+from perception.state import FINGERS
 
 UNHEALTHY_POLICIES = ("stop", "fail")
 TACTILE_KEYS = (keys.FV_LEFT, keys.FV_RIGHT)
+WARM_UP_S = 5.0  # s a wall-clock cell may take to deliver fresh perception before the first tick
 
 
 @dataclass(frozen=True)
@@ -108,6 +116,18 @@ class Supervisor:
         cause = self.find_cause()
         if cause is not None:
             self.latch(cause)
+
+    def await_fresh_perception(self, sense: PerceptionSource, timeout: float = WARM_UP_S) -> None:
+        """Before the first tick on a wall-clock cell: read perception until every fingertip's
+        state is within the staleness limit (at most `timeout` s), so that the first tick does not
+        stop the cell on a frame from before the run (calibration, setting the tree up). What is
+        still stale then trips the first tick as ever."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            states, now = sense(), self.cell.clock.now()
+            if all(f in states and now - states[f].stamp <= self.settings.perception_stale_after for f in FINGERS):
+                return
+            time.sleep(0.01)
 
     def latch(self, cause: str) -> None:
         """Trip arm and gripper (both stop, both refuse commands until a person resets them)."""
