@@ -5,6 +5,7 @@ every package can raise it."""
 from __future__ import annotations
 
 import difflib
+import errno
 from collections.abc import Iterable, Sequence
 
 
@@ -27,6 +28,15 @@ class FvtreeError(Exception):
         if self.hint:
             text += f" ({self.hint})"
         return text
+
+
+# The errnos of a write that found no room: a full disk, a full quota, the file-size limit (ulimit -f).
+DISK_FULL = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
+
+
+class RecordNotWritten(FvtreeError):
+    """A record of what stands in the cell (the as-built model) could not be written, e.g. to a
+    full disk: the run stops its cell (status FAULT) rather than build on without a record."""
 
 
 class FvtreeErrors(FvtreeError):

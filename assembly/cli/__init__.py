@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import errno
 import logging
+import signal
 import sys
 
 from assembly.cli import bench, cell, design, interop, learning, observe, run, trees
 from assembly.cli.exits import EXIT_FAILURE, EXIT_USAGE, report
-from fvfiles.errors import FvtreeError
+from fvfiles.errors import DISK_FULL, FvtreeError
 
 __all__ = ["EXIT_FAILURE", "EXIT_USAGE", "main", "parser", "report"]
 
@@ -29,6 +31,8 @@ def parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Run the command `argv` names (default: the process's arguments); returns the exit code, one line on
     stderr for an error unless --debug."""
+    if hasattr(signal, "SIGXFSZ"):  # past a file-size limit (ulimit -f) a write fails with EFBIG, not a kill
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     args = parser().parse_args(argv)
     logging.basicConfig(level=logging.DEBUG if args.debug else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
@@ -44,6 +48,9 @@ def main(argv: list[str] | None = None) -> int:
             raise
         if isinstance(exc, OSError) and exc.filename is not None:  # a path given on the command line
             return report(FvtreeError(exc.strerror or str(exc), str(exc.filename)))
+        if isinstance(exc, OSError) and exc.errno in DISK_FULL:  # a write with no name to it: still no traceback
+            return report(FvtreeError(f"cannot write: {exc.strerror} ({errno.errorcode[exc.errno]})",
+                                      hint="free some disk space (df -h) or raise the file-size limit (ulimit -f)"))
         print(f"error: {type(exc).__name__}: {exc} (rerun with --debug for the traceback)", file=sys.stderr)
         return EXIT_FAILURE
 

@@ -28,7 +28,7 @@ from assembly.errors import TreeError
 from assembly.language.build import BuiltTree, build
 from assembly.language.reader import TreeDocument, load_tree, with_scene
 from assembly.language.substitution import substitute
-from assembly.observe.recorder import RunRecorder, run_recorder
+from assembly.observe.recorder import recording_path, run_recorder
 from assembly.outcome.charts import plot_profiles
 from assembly.outcome.result import RunResult
 from assembly.outcome.summary import SUMMARY_FILE, Summary, format_summary, summarize
@@ -38,9 +38,10 @@ from assembly.run.loop import Runner
 from assembly.run.options import MARKS, RunOptions
 from assembly.run.perception_stage import clear_blackboard
 from assembly.run.progress import end_stderr_progress, stderr_progress
+from assembly.run.recording_guard import GuardedRecorder, guarded_recorder
 from assembly.run.run_dir import ASBUILT_FILE, EVENTS_FILE, find_run, new_run_dir, write_run_file
 from assembly.run.run_lock import RunLock
-from assembly.run.storage import storage_errors_located
+from assembly.run.storage import RunStorage, storage_errors_located, why
 from assembly.run.supervisor import Supervision
 from assembly.signals import sigterm_raises_terminated
 from drivers.cell import Cell
@@ -80,6 +81,7 @@ class Run:
         self._cell_closed = False
         self._finished = False
         self._lock: RunLock | None = None  # the run directory's, held from its choice to `close()`
+        self.storage = RunStorage(None)  # what disk trouble cost the run (with a run directory: its reserve)
 
     @property
     def cell(self) -> Cell:
@@ -94,7 +96,7 @@ class Run:
         return self._opened().runner
 
     @property
-    def recorder(self) -> RunRecorder | None:
+    def recorder(self) -> GuardedRecorder | None:
         return self._parts.recorder if self._parts is not None else None
 
     # ---- opening ---------------------------------------------------------------------------
@@ -170,6 +172,7 @@ class Run:
                 write_run_file(self.run_dir, doc, cell=o.cell, seed=o.seed)
                 if doc.design is not None:
                     self.bridge = DesignBridge(doc.design, self.run_dir / ASBUILT_FILE, self.run_dir / EVENTS_FILE)
+        self.storage = RunStorage(self.run_dir)
         if self.bridge is not None and o.link is not None:
             from assembly.design.link.mqtt_bridge import attach  # compas_eve and paho: only when linked
 
@@ -199,14 +202,17 @@ class Run:
         tree = build(self.doc)
         recorder = None  # the recording and its live view follow the run directory's event log
         if self.run_dir is not None and (o.record or o.live):
-            recorder = run_recorder(tree, cell, self.run_dir, design, o.record, o.live, o.record_images)
+            run_dir = self.run_dir
+            recorder = guarded_recorder(self.storage, recording_path(run_dir) if o.record else None,
+                                        lambda: run_recorder(tree, cell, run_dir, design, o.record, o.live,
+                                                             o.record_images))
         sense, given = None, self.sense
         if given is not None:
             def sense() -> Mapping[str, Any]:
                 return given(cell)
         runner = Runner(tree, cell, self.run_dir, self.bridge, realtime=o.realtime,
                         progress=None if o.quiet else stderr_progress, sense=sense, estop_at=o.estop_at,
-                        max_time=o.max_time, supervision=supervision, recorder=recorder)
+                        max_time=o.max_time, supervision=supervision, recorder=recorder, storage=self.storage)
         if self.bridge is not None:
             self.bridge.event("start", tree=str(self.doc.path), cell=o.cell, seed=o.seed, resume=bool(o.resume))
         return _Parts(cell, tree, recorder, runner)
@@ -246,9 +252,9 @@ class Run:
         summary.substitutions = self.substituted
         if cell.world is not None:
             summary.apply(judge(cell.world, self.tolerances))
+        self._log_end(summary, result)  # first: the event log's end matters more than the files below
         if self.run_dir is not None:
             self._write(summary, result, self.run_dir)
-        self._log_end(summary, result)
         if not o.quiet:
             self._print(summary)
         return summary
@@ -269,14 +275,27 @@ class Run:
 
     # ---- after the last tick -----------------------------------------------------------------
     def _write(self, summary: Summary, result: RunResult, run_dir: Path) -> None:
-        """Chart and summary file; a run directory that cannot be written loses them, not the run."""
-        try:
-            if self.options.plots:
+        """Chart and summary file, with what disk trouble lost (`Summary.lost`); a run directory that
+        cannot be written loses them, not the run (the summary is still printed)."""
+        if self.options.plots:
+            try:
                 png = plot_profiles(result.profiles, self.cell.world, run_dir / "load_profiles.png")
                 summary.plot = str(png) if png else None
+            except OSError as exc:
+                self.storage.lost("load_profiles.png", exc)
+        self.storage.release()  # the run's records are written: the reserve's room is the summary's
+        summary.lost = self._lost()
+        try:
             summary.write(run_dir)
         except OSError as exc:
-            print(f"cannot write the summary to {self.run_dir} ({exc.strerror or exc})", file=sys.stderr)
+            self.storage.lost(SUMMARY_FILE, exc)
+            summary.lost = self._lost()
+            print(f"cannot write the summary to {self.run_dir} ({why(exc)})", file=sys.stderr)
+
+    def _lost(self) -> list[str]:
+        """What disk trouble cost this run: the storage's notes and events that only reached stderr."""
+        unlogged = self.bridge.unlogged if self.bridge is not None else 0
+        return self.storage.notes + ([f"{EVENTS_FILE}: {unlogged} records only on stderr"] if unlogged else [])
 
     def _log_end(self, summary: Summary, result: RunResult) -> None:
         end = {"status": summary.status, "where": result.where, "message": summary.message}
@@ -314,6 +333,7 @@ class Run:
                 if self.recorder is not None:
                     self.recorder.finish()
         finally:
+            self.storage.release()
             if self._lock is not None:
                 self._lock.release()
 
@@ -331,7 +351,7 @@ class _Parts:
 
     cell: Cell
     tree: BuiltTree
-    recorder: RunRecorder | None
+    recorder: GuardedRecorder | None
     runner: Runner
 
 
