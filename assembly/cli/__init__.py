@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import errno
 import logging
+import os
 import signal
 import sys
 
@@ -22,6 +23,8 @@ def parser() -> argparse.ArgumentParser:
     """The `fvtree` argument parser: the global options, then every group's commands."""
     p = argparse.ArgumentParser(prog="fvtree", description=__doc__)
     p.add_argument("--debug", action="store_true", help="show tracebacks and debug logs")
+    p.add_argument("--allow-include", action="append", default=[], metavar="DIR",
+                   help="let trees include files from DIR too (by default only from the tree's own folder)")
     sub = p.add_subparsers(dest="command", required=True)
     for group in GROUPS:
         group.add_commands(sub)
@@ -34,6 +37,9 @@ def main(argv: list[str] | None = None) -> int:
     if hasattr(signal, "SIGXFSZ"):  # past a file-size limit (ulimit -f) a write fails with EFBIG, not a kill
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     args = parser().parse_args(argv)
+    if args.allow_include:  # read by the tree reader (assembly.language.reader.INCLUDE_PATH), and by workers
+        given = [os.path.abspath(d) for d in args.allow_include]
+        os.environ["FVTREE_INCLUDE_PATH"] = os.pathsep.join([*given, *filter(None, [os.environ.get("FVTREE_INCLUDE_PATH")])])
     logging.basicConfig(level=logging.DEBUG if args.debug else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
     try:
