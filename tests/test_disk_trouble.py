@@ -88,6 +88,7 @@ def test_an_as_built_record_that_cannot_be_written_stops_the_cell(tmp_path):
     assert [e["event"] for e in events(run_dir)][:2] == ["start", "placing"]  # every line whole
 
 
+@pytest.mark.slow
 def test_no_room_for_the_run_directory_is_a_located_error(tmp_path):
     done = run_limited(0, tmp_path)
     assert done.returncode == 2, done.stderr[-3000:]
@@ -191,3 +192,18 @@ def test_a_full_disk_with_no_file_named_is_still_an_error_not_a_traceback(monkey
     assert main(["run", ASSEMBLY]) == 2
     err = capsys.readouterr().err
     assert err.startswith("cannot write: No space left on device (ENOSPC)") and "Traceback" not in err
+
+
+def test_a_dataset_that_cannot_be_written_is_a_located_error_with_no_file_left(tmp_path, monkeypatch, capsys):
+    from perception.learning import dataset
+
+    def full(self, path):
+        Path(path).write_bytes(b"PK\x03\x04 half")  # what a full disk leaves: the start of the file
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(dataset.Dataset, "save", full)
+    out = tmp_path / "data.npz"
+    code = main(["record", str(ROOT / "trees" / "record_press.yaml"), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and f"{out}: cannot write the dataset: No space left on device (ENOSPC)" in err
+    assert not out.exists()
