@@ -136,6 +136,29 @@ def test_a_run_stopped_after_its_last_placement_resumes_to_finish_the_tree(tmp_p
     assert third.nothing_to_do and third.status == "SUCCESS"
 
 
+@pytest.mark.slow
+def test_a_run_killed_after_its_last_placement_resumes_to_finish_the_tree(tmp_path, capsys):
+    """kill -9 while the arm backs out of the last element (after its `placed` record): the resume
+    runs the rest of the tree instead of answering 'nothing to do'."""
+    from test_fail_safe import KILL_AT  # the kill -9 at a cell time, shared with the fail-safe tests
+
+    full = run_tree(ASSEMBLY, RunOptions(runs_dir=tmp_path / "full", **QUIET))
+    place = [t for t in lines(Path(full.run_dir) / "transitions.jsonl")
+             if t["node"].endswith("/prop/place") and t["to"] == "SUCCESS"][-1]["t"]  # E2 placed, then backed out
+    args = ["run", ASSEMBLY, "--runs-dir", str(tmp_path / "runs"), "--no-plots", "--no-record"]
+    killed = subprocess.run([sys.executable, "-c", KILL_AT, str(place - 0.3), *args], cwd=ROOT,
+                            capture_output=True, text=True, check=False)
+    assert killed.returncode == -9, killed.stderr[-2000:]
+    run_dir = next((tmp_path / "runs").iterdir())
+    assert placings(run_dir) == {"E1": 1, "E2": 1} and not (run_dir / "summary.json").exists()
+    assert main([*args, "--resume"]) == 0
+    out = capsys.readouterr().out
+    assert "nothing to do" not in out and out.startswith("SUCCESS")
+    assert placings(run_dir) == {"E1": 1, "E2": 1}
+    ends = [e for e in lines(run_dir / "events.jsonl") if e["event"] in ("start", "end")]
+    assert [e["event"] for e in ends] == ["start", "start", "end"] and ends[-1]["status"] == "SUCCESS"
+
+
 # ---- the latest run -------------------------------------------------------------------------
 
 def test_resume_takes_the_run_started_last_not_the_last_name(tmp_path, monkeypatch):
