@@ -19,7 +19,8 @@ class DescendUntilContact(ProgramSkill):
     PARAMS = {
         "speed": Param("float", "descent speed", 0.01, "m/s", min=1e-4, max=0.1),
         "eps": Param("float", "force change that means contact", 0.5, "px", min=0.0),
-        "max_travel": Param("float", "give up after descending this far", 0.15, "m", min=0.0),
+        "max_travel": Param("float", "give up after descending this far (or at the workspace box's "
+                            "floor, whichever comes first)", 0.15, "m", min=0.0, max=1.0),
         "reference_ticks": Param("int", "ticks averaged for the reference force f_0", 5, min=1),
         "force_eps": Param("float", "change of the arm's measured TCP force that also means contact "
                            "(0: fingertips only)", 2.0, "N", min=0.0),
@@ -52,3 +53,8 @@ class DescendUntilContact(ProgramSkill):
             if travelled > self.p.max_travel:
                 arm.stop()
                 return self.fail(f"no contact within {self.p.max_travel} m of descent")
+            held = self.held_at_box()
+            if held:
+                arm.stop()
+                return self.fail(f"no contact after {travelled * 1000:.0f} mm of descent, at the workspace "
+                                 f"box's {held}: the safety layer stops the arm there")

@@ -31,7 +31,7 @@ class PressWithForce(UsesModel, ProgramSkill):
         "gain": Param("float", "press speed per newton of force error", 0.002, "m/s/N", min=0.0),
         "max_speed": Param("float", "press speed limit", 0.005, "m/s", min=1e-4, max=0.05),
         "settle": Param("int", "ticks the force must stay within the tolerance", 10, min=1),
-        "max_travel": Param("float", "give up after pressing this far", 0.1, "m", min=0.0),
+        "max_travel": Param("float", "give up after pressing this far", 0.1, "m", min=0.0, max=1.0),
         "max_force": Param("float", "abort above this force", 20.0, "N", min=0.0),
         "smoothing": Param("int", "ticks in the moving average of the predicted force", 3, min=1),
         "max_time": time_limit(30.0, "give up when the force has not settled within this time"),
@@ -58,6 +58,11 @@ class PressWithForce(UsesModel, ProgramSkill):
                 arm.stop()
                 return self.fail(f"pressed {travelled * 1000:.0f} mm and feel only {force:.2f} N: "
                                  "nothing under the object, or the model does not fit this object")
+            held = self.held_at_box()
+            if held:
+                arm.stop()
+                return self.fail(f"pressed {travelled * 1000:.0f} mm to the workspace box's {held} and feel "
+                                 f"only {force:.2f} N: the safety layer stops the arm there")
             if self.now() - t0 > self.p.max_time:
                 arm.stop()
                 return self.fail(f"the force did not settle within {self.p.tolerance} N of the target in "

@@ -19,7 +19,7 @@ class VisScan(ProgramSkill):
     PARAMS = {
         "step": Param("float", "scan distance per tick (sets the scan speed)", 0.002, "m", min=1e-4, max=0.02),
         "edge_fraction": Param("float", "share of the full-view area at which the edge is declared", 0.5, min=0.05, max=0.95),
-        "max_travel": Param("float", "longest scan in each direction", 0.5, "m", min=0.01),
+        "max_travel": Param("float", "longest scan in each direction", 0.5, "m", min=0.01, max=1.0),
         "length_tolerance": Param("float", "allowed difference from the design length", 0.02, "m", min=0.0),
         "speed": Param("float", "speed of the final move to the middle", 0.1, "m/s", min=0.001),
         "reference_ticks": Param("int", "ticks the full-view area is averaged over (the seen area is noisy)", 5,

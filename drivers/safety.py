@@ -3,13 +3,17 @@
 `SafeArm` is the gate every arm command passes: it refuses (never clamps) non-finite poses, twists
 and speeds, speeds at or below zero, rotation vectors turning beyond pi and wrong shapes, latching a
 fault that names the command and the bad value; it clamps (or refuses) targets outside the workspace
-box, caps the TCP's linear speed and refuses a turn faster than `max_angular_speed`. Anything the driver raises, in a command or a state
+box, caps the TCP's linear speed and refuses a turn faster than `max_angular_speed`. A twist is held
+inside the box too: when it is commanded and again every control period while it runs, the pose the
+arm would reach one period ahead (plus the distance it needs to brake) is checked, and the twist's
+components that would cross a face are dropped (or the arm stopped with a fault, `refuse`). Anything the driver raises, in a command or a state
 read, latches a fault instead of escaping, and a non-finite pose or force reading stops the arm. It
 also stops on excess force, and runs a watchdog that stops the arm when the tree stops ticking
 (`kick` not called) or the arm's state goes stale. On real hardware the watchdog also runs in its
-own thread (`start_watchdog`), so it fires even when the tick loop itself hangs, and `kick` feeds
-the controller's own watchdog where the arm has one (the last line of defence if this process
-dies). Faults stay latched until `reset` is called by a person (never automatically); `fault()`
+own thread (`start_watchdog`), so it fires even when the tick loop itself hangs; `kick` and that
+thread feed the controller's own watchdog where the arm has one (the last line of defence if this
+process dies), the thread only while the tree ticks, so a slow tick cannot starve the controller's
+watchdog and a stalled tree is still stopped. Faults stay latched until `reset` is called by a person (never automatically); `fault()`
 reports every latched cause.
 """
 
@@ -18,6 +22,8 @@ from __future__ import annotations
 import logging
 import math
 import threading
+import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
@@ -29,6 +35,7 @@ from drivers.protocols import Arm, Clock
 log = logging.getLogger(__name__)
 WORKSPACE_POLICIES = ("clamp", "refuse")
 NO_READING = np.full(6, np.nan)  # what a read returns when the driver never gave a good one
+CONTROLLER_FEED_PERIOD = 0.02  # s of wall time between feeds of the controller's watchdog by the thread
 
 
 @runtime_checkable
@@ -98,10 +105,14 @@ class SafeArm(Guard):
         self.clock = clock
         self._last_kick = clock.now()
         self.clamped = 0  # count of targets pulled back into the workspace (for reports)
+        self._twist: np.ndarray | None = None  # the twist forwarded last, while it is held
+        self.held_at: str | None = None  # the box face that stopped the held twist, until the next command
         self._watchdog: threading.Thread | None = None
         self._watchdog_period: float | None = None  # set by start_watchdog
         self._watchdog_stop = threading.Event()
         self._controller_watchdog = isinstance(arm, ControllerWatchdog)  # checked once: it is slow
+        # m an arm travels while a twist of the given speed is brought to rest; none: it stops at once
+        self._braking: Callable[[float], float] | None = getattr(arm, "braking_distance", None)
 
     # --- state, checked on the way through ----------------------------------------------------
     def pose(self) -> np.ndarray:
@@ -138,6 +149,7 @@ class SafeArm(Guard):
                 self.clamped += 1
                 log.warning("target %s outside the workspace, clamped to %s", goal[:3], clipped)
             goal[:3] = clipped
+            self._twist, self.held_at = None, None
             self._forward("move_linear", self.inner.move_linear, goal, min(speed, self.limits.max_speed))
 
     def speed_linear(self, twist: np.ndarray) -> None:
@@ -153,14 +165,52 @@ class SafeArm(Guard):
                           f"max_angular_speed {self.limits.max_angular_speed:g} rad/s")
                 return
             _cap(v[:3], self.limits.max_speed)
-            # Never drive further out through a face of the workspace box.
             p = self.pose()[:3]
             if self._causes:
                 return  # the pose could not be read: the arm is stopped
-            out_low = (p <= self.limits.workspace_min) & (v[:3] < 0)
-            out_high = (p >= self.limits.workspace_max) & (v[:3] > 0)
-            v[:3][out_low | out_high] = 0.0
-            self._forward("speed_linear", self.inner.speed_linear, v)
+            self.held_at = None
+            self._send_within_box("speed_linear", p, v)
+
+    def workspace(self) -> tuple[np.ndarray, np.ndarray]:
+        """The box's lower and upper corners (m, base frame): skills bound their travel by it."""
+        return self.limits.workspace_min.copy(), self.limits.workspace_max.copy()
+
+    def _send_within_box(self, what: str, p: np.ndarray, v: np.ndarray) -> None:
+        """Forward twist `v` from TCP position `p` without the components that would take the TCP
+        through a face of the box before the next check; with `refuse`, such a twist stops the arm
+        with a fault instead. The twist sent is kept, to be checked again every control period."""
+        crossing = self._crossing(p, v[:3])
+        if crossing is not None:
+            if self.limits.out_of_workspace == "refuse":
+                self.trip(f"workspace: the twist {np.round(v[:3], 4).tolist()} m/s would take the TCP "
+                          f"from {np.round(p, 4).tolist()} through the box's {crossing}")
+                return
+            low, high = self._ahead(p, v[:3])
+            v[:3][((v[:3] < 0) & (low < self.limits.workspace_min)) | ((v[:3] > 0) & (high > self.limits.workspace_max))] = 0.0
+            self.clamped += 1
+            self.held_at = crossing
+            log.warning("%s held at the workspace box's %s", what, crossing)
+        self._twist = v if np.any(v) else None
+        self._forward("speed_linear", self.inner.speed_linear, v)
+
+    def _ahead(self, p: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Per axis, the lowest and highest position the TCP may reach before the next check stops
+        it: one control period of travel at `v`, plus the braking distance the arm declares."""
+        reach = v * self.clock.period
+        speed = float(np.linalg.norm(v))
+        if self._braking is not None and speed > 0:
+            reach = reach + v * (self._braking(speed) / speed)  # the arm brakes along the twist's line
+        return p + np.minimum(reach, 0.0), p + np.maximum(reach, 0.0)
+
+    def _crossing(self, p: np.ndarray, v: np.ndarray) -> str | None:
+        """The face a twist `v` from `p` would cross before the next check, as text, or None."""
+        low, high = self._ahead(p, v)
+        for axis, name in enumerate("xyz"):
+            if v[axis] < 0 and low[axis] < self.limits.workspace_min[axis]:
+                return f"{name} min {self.limits.workspace_min[axis]:g} m"
+            if v[axis] > 0 and high[axis] > self.limits.workspace_max[axis]:
+                return f"{name} max {self.limits.workspace_max[axis]:g} m"
+        return None
 
     # --- supervision, called once per tick by the cell ---------------------------------------
     def kick(self) -> None:
@@ -170,6 +220,14 @@ class SafeArm(Guard):
             self._start_watchdog_thread(self._watchdog_period)
         if not self._causes and self._controller_watchdog:
             self._forward("kick_watchdog", self.inner.kick_watchdog)
+
+    def _feed_controller(self) -> None:
+        """Feed the controller's watchdog from the watchdog thread, so that a slow tick cannot
+        starve it, but only while the tree ticks (within `watchdog_timeout`): a stalled tree is
+        stopped by `supervise`, and then the controller's watchdog fires too."""
+        with self._lock:
+            if not self._causes and self.clock.now() - self._last_kick <= self.limits.watchdog_timeout:
+                self._forward("kick_watchdog", self.inner.kick_watchdog)
 
     def start_watchdog(self, period: float = 0.01) -> None:
         """From the first `kick` on (the tree started ticking), also supervise every `period` s
@@ -181,8 +239,12 @@ class SafeArm(Guard):
         self._watchdog_stop.clear()
 
         def watch() -> None:
+            fed = time.monotonic()
             while not self._watchdog_stop.wait(period):
                 self.supervise()
+                if self._controller_watchdog and time.monotonic() - fed >= CONTROLLER_FEED_PERIOD:
+                    fed = time.monotonic()
+                    self._feed_controller()
 
         self._watchdog = threading.Thread(target=watch, name="safety-watchdog", daemon=True)
         self._watchdog.start()
@@ -204,10 +266,14 @@ class SafeArm(Guard):
             now = self.clock.now()
             self.fault()  # latches the driver's own fault
             force = math.hypot(*self.tcp_wrench().tolist()[:3])
-            self.pose()
+            pose = self.pose()
             stamp = self.state_stamp()
             if self._causes:
                 return self.fault()  # a driver fault, or a reading that was not finite
+            if self._twist is not None and self._crossing(pose[:3], self._twist[:3]) is not None:
+                self._send_within_box("held twist", pose[:3], self._twist.copy())
+                if self._causes:
+                    return self.fault()
             if force > self.limits.max_force:
                 self.trip(f"force limit: {force:.1f} N > {self.limits.max_force:.1f} N")
             elif now - self._last_kick > self.limits.watchdog_timeout:
@@ -215,6 +281,10 @@ class SafeArm(Guard):
             elif now - stamp > self.limits.stale_after:
                 self.trip(f"stale arm state: {now - stamp:.3f} s old")
             return self.fault() if self._causes else None  # no trip: the driver's fault was read above
+
+    def _halt(self) -> None:
+        self._twist = None
+        super()._halt()
 
     def reset(self) -> None:
         """Clear the latched faults; for a person who has checked the cell, never automatic."""

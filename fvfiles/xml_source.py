@@ -17,14 +17,15 @@ MAX_DEPTH = 200
 
 @dataclass
 class XmlNode:
-    """An element: tag, attributes, 1-based line, child elements and the processing
-    instructions directly inside it (target, data)."""
+    """An element: tag, attributes, 1-based line, child elements, and the processing
+    instructions (target, data) and comments (text, line) directly inside it."""
 
     tag: str
     attrs: dict[str, str]
     line: int
     children: list[XmlNode] = field(default_factory=list)
     instructions: list[tuple[str, str]] = field(default_factory=list)
+    comments: list[tuple[str, int]] = field(default_factory=list)
 
 
 class _Refused(Exception):
@@ -62,12 +63,17 @@ def parse_xml_text(text: str, name: str) -> XmlNode:
         if stack:
             stack[-1].instructions.append((target, data))
 
+    def comment(text: str) -> None:
+        if stack:
+            stack[-1].comments.append((text, parser.CurrentLineNumber))
+
     parser.StartDoctypeDeclHandler = refuse
     parser.EntityDeclHandler = refuse
     parser.ExternalEntityRefHandler = refuse
     parser.StartElementHandler = start
     parser.EndElementHandler = end
     parser.ProcessingInstructionHandler = instruction
+    parser.CommentHandler = comment
     try:
         parser.Parse(text, True)
     except _Refused as exc:

@@ -160,6 +160,13 @@ class HealthConfig:
     dark_level: float = 15.0  # mean grey level below which the image is too dark
     saturated_share: float = 0.5  # share of pixels at >= 250 above which it is washed out
     frozen_frames: int = 5  # identical consecutive frames before the camera counts as frozen
+    # A part of the image frozen while the rest lives (a decoder concealing truncated JPEGs with
+    # the last good pixels): one of 4 x 4 regions with at least `frozen_region_share` of its
+    # pixels identical to the last frame for `frozen_region_frames` frames in a row, while another
+    # region changes in most of its pixels. The real clip's longest such run is 2 frames (H.264
+    # copies still blocks exactly); 0 turns the check off.
+    frozen_region_frames: int = 10
+    frozen_region_share: float = 0.98
 
 
 @dataclass(frozen=True)
@@ -273,6 +280,9 @@ def _check(c: FingerVisionConfig, source: str) -> None:
         problems.append("slip.step must be at least 1 (1: every pixel)")
     if c.late.every < 1 or c.late.confirm < 2:
         problems.append("late.every must be at least 1 and late.confirm at least 2")
+    if c.health.frozen_region_frames < 0 or not 0.5 < c.health.frozen_region_share <= 1.0:
+        problems.append("health.frozen_region_frames must be >= 0 (0: off) and health.frozen_region_share "
+                        "in (0.5, 1]")
     if c.tracker.area_range[0] >= c.tracker.area_range[1]:
         problems.append("tracker.area_range must be [low, high] with low < high")
     if problems:

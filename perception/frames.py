@@ -36,26 +36,54 @@ def as_bgr(frame: object, size: tuple[int, int] | None = None) -> np.ndarray:
     return np.ascontiguousarray(frame)
 
 
+GRID = 4  # regions per side for the partly-frozen check
+TEXTURED = 3.0  # grey std above which a region shows content (a clipped black or white one does not)
+LIVE = 0.5  # a region with fewer identical pixels than this is live
+
+
 class ImageQuality:
-    """Per-frame usability check of the grey image: too dark, washed out, or frozen camera."""
+    """Per-frame usability check of the grey image: too dark, washed out, frozen camera, or a part
+    of the image frozen while the rest lives."""
 
     def __init__(self, config: HealthConfig):
         self.config = config
         self._last: np.ndarray | None = None
         self._repeats = 0
+        self._region_repeats = np.zeros(GRID * GRID, dtype=int)
         self.saturated = 0.0  # share of saturated pixels (>= 250) in the last frame checked
 
     def reset(self) -> None:
         """Forget the previous frame (after a recalibration or camera restart)."""
         self._last, self._repeats = None, 0
+        self._region_repeats[:] = 0
+
+    def _frozen_region(self, sample: np.ndarray, last: np.ndarray) -> str:
+        """Why a part of the image counts as frozen, or "": see HealthConfig.frozen_region_frames."""
+        h, w = (sample.shape[0] // GRID) * GRID, (sample.shape[1] // GRID) * GRID
+        shape = (GRID, h // GRID, GRID, w // GRID)
+        now = sample[:h, :w].reshape(shape)
+        same = (now == last[:h, :w].reshape(shape)).mean(axis=(1, 3)).ravel()
+        textured = now.std(axis=(1, 3)).ravel() > TEXTURED
+        frozen = (same >= self.config.frozen_region_share) & textured & (same.min() < LIVE)
+        self._region_repeats = np.where(frozen, self._region_repeats + 1, 0)
+        worst = int(self._region_repeats.argmax())
+        if self._region_repeats[worst] < self.config.frozen_region_frames:
+            return ""
+        row, col = divmod(worst, GRID)
+        return (f"part of the image frozen (region {row + 1},{col + 1} of {GRID}x{GRID} unchanged for "
+                f"{self._region_repeats[worst]} frames while the rest changes): a decoder concealing "
+                "truncated or corrupt frames, or a stuck sensor area")
 
     def problem(self, grey: np.ndarray) -> str:
         """Why this grey frame is unusable, or "" when it is fine."""
         sample = grey[::4, ::4].copy()  # 1/16 of the pixels is plenty for global statistics (contiguous)
+        part = ""
         if self._last is not None and np.array_equal(sample, self._last):
             self._repeats += 1
         else:
             self._repeats = 0
+            if self.config.frozen_region_frames and self._last is not None and self._last.shape == sample.shape:
+                part = self._frozen_region(sample, self._last)
         self._last = sample
         mean = cv2.mean(sample)[0]
         self.saturated = saturated = cv2.countNonZero(cv2.compare(sample, 250, cv2.CMP_GE)) / sample.size
@@ -65,7 +93,7 @@ class ImageQuality:
             return f"image washed out ({saturated:.0%} of pixels saturated); reduce exposure or glare"
         if self._repeats >= self.config.frozen_frames:
             return f"camera frozen ({self._repeats + 1} identical frames)"
-        return ""
+        return part
 
 
 def read_clip(path: str | Path, limit: int | None = None) -> list[np.ndarray]:

@@ -3,8 +3,13 @@ the real design bridge, MQTT link, claim client and for_each_element, with each 
 scripted (a few ticks of 20 ms, then placing and placed at the element's pick pose raised 1 m).
 
     python tests/coordinated_cell.py mqtt://127.0.0.1:PORT CELL RUN_DIR [--die-at ELEMENT]
+        [--credentials FILE] [--build-ticks N] [--lost-after SECONDS]
 
---die-at: exit abruptly (no goodbye, no renewals) once ELEMENT is being built."""
+--die-at: exit abruptly (no goodbye, no renewals) once ELEMENT is being built.
+--credentials: log in and sign as the file says (assembly.design.link.security).
+After every tick the design bridge's fault (a refused claim, a lost lease) is checked as the run's
+stop policy checks it: the build is halted (the element's build stops where it is) and the cell
+exits 3 with a `fault` event naming the reason."""
 
 from __future__ import annotations
 
@@ -23,6 +28,7 @@ sys.path.insert(0, str(ROOT))
 
 from assembly.design.bridge import DesignBridge
 from assembly.design.link.mqtt_bridge import attach
+from assembly.design.link.security import LinkError, LinkSecurity
 from assembly.design.model import DesignModel
 from assembly.nodes.for_each_element import ForEachElement
 from behaviours.skill_kit import keys
@@ -48,9 +54,10 @@ class Cell:
 
 
 class ScriptedBuild(py_trees.behaviour.Behaviour):
-    def __init__(self, die_at: str | None):
+    def __init__(self, die_at: str | None, ticks: int = BUILD_TICKS):
         super().__init__("build")
         self.die_at = die_at
+        self.ticks = ticks
         self.bb = self.attach_blackboard_client("build")
         self.bb.register_key(key=keys.ELEMENT, access=Access.READ)
         self.bb.register_key(key=keys.ASBUILT, access=Access.WRITE)
@@ -63,10 +70,10 @@ class ScriptedBuild(py_trees.behaviour.Behaviour):
         if element["id"] == self.die_at:
             os._exit(9)  # a crash: the claim is never renewed again
         self.step += 1
-        if self.step < BUILD_TICKS:
+        if self.step < self.ticks:
             return Status.RUNNING
         pose = (np.array(element["pick_pose"]) + [0, 0, 1.0, 0, 0, 0]).tolist()
-        status = "placing" if self.step == BUILD_TICKS else "placed"
+        status = "placing" if self.step == self.ticks else "placed"
         self.bb.set(keys.ASBUILT, {"element": element["id"], "status": status, "pose": pose, "load": 20.0},
                     overwrite=True)
         return Status.RUNNING if status == "placing" else Status.SUCCESS
@@ -78,19 +85,33 @@ def main() -> int:
     p.add_argument("cell")
     p.add_argument("run_dir", type=Path)
     p.add_argument("--die-at")
+    p.add_argument("--credentials")
+    p.add_argument("--build-ticks", type=int, default=BUILD_TICKS)
+    p.add_argument("--lost-after", type=float, default=10.0, help="s of lost link before the cell stops")
     args = p.parse_args()
     args.run_dir.mkdir(parents=True, exist_ok=True)
     bridge = DesignBridge(DesignModel.load(DESIGN), args.run_dir / "asbuilt.json", args.run_dir / "events.jsonl")
-    attach(bridge, args.url, args.cell, coordinated=True)
-    node = ForEachElement("elements", ScriptedBuild(args.die_at))
+    try:
+        attach(bridge, args.url, args.cell, coordinated=True, security=LinkSecurity.load(args.credentials, lost_after=args.lost_after))
+    except LinkError as exc:
+        print(exc, file=sys.stderr)
+        return 2
+    node = ForEachElement("elements", ScriptedBuild(args.die_at, args.build_ticks))
     cell = Cell()
     node.setup(design=bridge.model, bridge=bridge, cell=cell)
     bridge.event("start", cell=args.cell)
     deadline = time.monotonic() + 120
     while node.status in (Status.INVALID, Status.RUNNING) and time.monotonic() < deadline:
         node.tick_once()
+        fault = bridge.fault()
+        if fault is not None:  # as the run's stop policy does: halt the tree, report, stop
+            node.stop(Status.INVALID)
+            bridge.event("fault", message=fault, element=node.current)
+            bridge.close()
+            return 3
         time.sleep(TICK)
-    bridge.event("end", status=node.status.name, stood=sorted(cell.world.standing))
+    bridge.event("end", status=node.status.name, stood=sorted(cell.world.standing),
+                 forged=getattr(bridge.dispatcher, "forged", 0))
     bridge.close()
     return 0 if node.status == Status.SUCCESS else 1
 

@@ -210,6 +210,23 @@ def test_what_bt_cpp_cannot_say_is_refused_at_export(tmp_path, capsys):
     assert "t.yaml:4: short: cannot export" in err and "msec" in err
 
 
+def test_an_empty_element_list_is_refused_at_export(tmp_path, capsys):
+    """An empty port is a param left out (BT.CPP's generated XSD needs that default), so
+    `elements: []` has no spelling of its own."""
+    design = Path(__file__).resolve().parents[1] / "trees" / "design" / "two_bays.json"
+    tree = write(tmp_path, "t.yaml", f"""\
+        version: 1
+        name: t
+        design: {design}
+        root:
+          for_each_element: each
+          elements: []
+          child: {{skill: move_to, params: {{offset: [0.0, 0.0, 0.1]}}}}
+        """)
+    assert main(["export", str(tree), "-o", str(tmp_path / "t.xml")]) == 2
+    assert "t.yaml:5: each: cannot export: 'elements: []'" in capsys.readouterr().err
+
+
 def test_export_and_import_on_the_command_line(tmp_path, capsys):
     root = Path(__file__).resolve().parents[1]
     xml, back = tmp_path / "a.xml", tmp_path / "sub" / "a.yaml"
@@ -227,8 +244,8 @@ def test_subtree_ports_declared_the_groot2_way_type_a_file_without_our_metadata(
     assert main(["export", str(tree), "--subtree-models", "-o", str(xml)]) == 0
     text = xml.read_text()
     assert '<SubTree ID="classify_bowl" editable="true">' in text and 'type="std::vector&lt;double&gt;"' in text
-    start = text.index("<?fvtree")
-    xml.write_text(text[:start] + text[text.index("?>", start) + 2:])  # as Groot2 would save it: no metadata
+    start = text.index("<!-- fvtree")
+    xml.write_text(text[:start] + text[text.index("-->", start) + 3:])  # as Groot2 would save it: no metadata
     back = write(tmp_path, "c.yaml", import_xml(xml, tmp_path / "c.yaml"))
     original, returned = load_tree(tree), load_tree(back)
     assert returned.subtrees["classify_bowl"].params["at"].type == "vector"

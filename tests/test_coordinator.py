@@ -63,7 +63,8 @@ def assert_valid_order(order: list[str], model: DesignModel) -> None:
 def test_two_cells_place_every_element_exactly_once_in_a_valid_order(mqtt_broker, tmp_path):
     state = tmp_path / "state.json"
     coordinator = subprocess.Popen([sys.executable, "-m", "assembly.cli", "coordinate", str(DESIGN), "--broker",
-                                    mqtt_broker.url, "--lease", "600", "--state", str(state), "--until-done"],
+                                    mqtt_broker.url, "--lease", "600", "--state", str(state), "--until-done",
+                                    "--unsigned"],
                                    stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
     cells = {name: cell(mqtt_broker.url, name, tmp_path / name) for name in ("A", "B")}
     for name, process in cells.items():

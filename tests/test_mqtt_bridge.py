@@ -25,6 +25,7 @@ from assembly.design.bridge import DesignBridge
 from assembly.design.link.compas_data import from_graph, pose_to_frame
 from assembly.design.link.mqtt_bridge import MqttLink
 from assembly.design.link.transport import LinkTransport
+from assembly.design.link.workspace import Workspace
 from assembly.design.model import DesignModel
 from assembly.nodes.for_each_element import ForEachElement
 from behaviours.skill_kit import keys
@@ -63,7 +64,7 @@ class ScriptedRun:
     """A design bridge with an MQTT link and a for_each_element over the scripted build."""
 
     def __init__(self, tmp_path: Path, url: str, cell: str, design: Path = DESIGN):
-        self.link = MqttLink(url, cell)
+        self.link = MqttLink(url, cell, workspace=Workspace.of_cell("sim"))
         self.bridge = DesignBridge(DesignModel.load(design), tmp_path / "asbuilt.json", tmp_path / "events.jsonl",
                                    links=[self.link])
         self.node = ForEachElement("elements", ScriptedBuild())
@@ -140,7 +141,7 @@ def test_a_design_update_joins_the_build_at_the_next_element_boundary(mqtt_broke
     c.send({"update": "add-E3", "elements": [new], "edges": [{"source": "E3", "target": "E2"}]})
     wait_for(lambda: c.plan is not None, 120, "the plan")
     c.change_planned("E2", pose_to_frame([0.0, 0.62, 0.2, 0, -1.5707963, 0]), "move-E2")  # as Grasshopper does
-    wait_for(lambda: run.link._inbox.qsize() == 2, 120, "the updates to reach the cell")
+    wait_for(lambda: run.link.pending() == 2, 120, "the updates to reach the cell")
     assert run.bridge.model.graph.nodes["E1"]["status"] == "placing"  # not applied mid-element
     assert "E3" not in run.bridge.model.graph
     assert run.finish() == ["E1", "E3", "E2"]  # E2 now waits for E3
@@ -195,7 +196,7 @@ def test_conflicts_and_malformed_messages_are_answered_and_the_cell_goes_on(mqtt
     for payload in (b"{not json", b"[1, 2]", b"\xff\xfe", json.dumps({"update": 1, "elements": "E1"}).encode(),
                     b'{"update": "deep", "elements": ' + b"[" * 50 + b"]" * 50 + b"}", b"x" * 300_000):
         raw.client.publish("fvtree/bad/updates", payload, qos=1)
-    wait_for(lambda: run.link._inbox.qsize() >= len(BAD) + 6, 120, "every message to reach the cell")
+    wait_for(lambda: run.link.received >= len(BAD) + 6, 120, "every message to reach the cell")
     assert run.finish() == ["E1", "E2"]  # nothing stopped the cell, nothing changed the design
     assert set(run.bridge.model.elements()) == {"E1", "E2"}
     run.link.close()

@@ -77,6 +77,9 @@ class _RenderedCamera:
         self.sent.append(self.camera.render().image)
         return self.sent[-1], self.clock.now()
 
+    def corrupt_frames(self) -> tuple[int, str]:
+        return 0, ""
+
 
 def test_a_real_cell_perception_source_offers_the_frames_it_processed():
     from drivers.camera_frames import frames_of

@@ -112,6 +112,20 @@ def test_frozen_perception_stops_the_arm_within_the_stale_limit_without_pressing
     assert_cell_stopped(runner)
 
 
+def test_the_run_reports_how_close_it_came_to_each_limit():
+    """The summary's margins: the worst perception age, arm data age and tick gap beside their
+    limits; on the frozen stream the perception age reached its limit, the rest stayed at a tick."""
+    def freeze(rec):
+        if rec.frozen is None and rec.runner.tip.path.endswith("/descend"):
+            rec.freeze()
+
+    _, _, result = supervised_assembly(freeze, max_time=90.0)
+    margins = result.margins
+    assert margins["perception_age_s"]["limit"] == 0.2 and margins["perception_age_s"]["worst"] >= 0.2
+    assert margins["arm_state_age_s"] == {"worst": 0.0, "limit": 0.1}  # the simulated arm's state is always new
+    assert margins["tick_gap_s"]["worst"] == pytest.approx(1 / 30, abs=1e-3)
+
+
 def test_an_arm_fault_stops_the_cell_and_names_the_node():
     def fault(rec):
         if rec.runner.ticks == 300:

@@ -48,7 +48,8 @@ def _stats(controller: str, measure: str, seconds: list[float], rate: float | No
 def bench_controller(label: str, host: str, args: list[str], stream_s: float, repeats: int) -> list[Row]:
     """Stream servoL for `stream_s` s, then time `repeats` moveL and stopL acknowledgements."""
     with EmulatorProcess("drivers.emulators.ur", ["--host", host, *args]):
-        arm = UrArm(UrConfig(host, watchdog_hz=0.0), WallClock(0.01))
+        # latency is measured here, not link supervision: a busy machine must not end the stream
+        arm = UrArm(UrConfig(host, watchdog_hz=0.0, link_timeout=10.0), WallClock(0.01))
         try:
             start = arm.pose()
             before = backdoor.call(host, 30999, "state")["servo_updates"]

@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from assembly.cli.args import Subparsers
+from fvfiles.errors import FvtreeError
 
 
 def add_commands(sub: Subparsers) -> None:
@@ -15,7 +16,11 @@ def add_commands(sub: Subparsers) -> None:
     ex.add_argument("tree", metavar="TREE|RUN_DIR")
     ex.add_argument("--format", choices=("btcpp", "mcap"), default=None,
                     help="output format (default: mcap for a run directory or a path with no suffix, else btcpp)")
-    ex.add_argument("-o", "--out", help="file to write (default: stdout; mcap: RUN_DIR/recording.mcap)")
+    ex.add_argument("-o", "--out", help="file to write (default: stdout; mcap: RUN_DIR/recording.mcap, with --ros2 "
+                                        "RUN_DIR/recording.ros2.mcap)")
+    ex.add_argument("--ros2", action="store_true",
+                    help="mcap: a ROS 2 bag (standard message types in CDR, for ros2 bag play, rqt, Foxglove) "
+                         "instead of Foxglove's JSON messages")
     ex.add_argument("--subtree-models", action="store_true",
                     help="also declare the subtrees' ports in <TreeNodesModel> as Groot2 does (not valid against "
                          "BT.CPP's XSD)")
@@ -41,9 +46,12 @@ def cmd_export(args) -> int:
     if (args.format or ("mcap" if Path(args.tree).is_dir() or not Path(args.tree).suffix else "btcpp")) == "mcap":
         from assembly.interop.mcap.export import export_mcap
 
-        out, counts = export_mcap(Path(args.tree), Path(args.out) if args.out else None)
+        out, counts = export_mcap(Path(args.tree), Path(args.out) if args.out else None, ros=args.ros2)
         print(f"wrote {out}: {sum(counts.values())} messages on {len(counts)} topics")
         return 0
+    if args.ros2:
+        raise FvtreeError("--ros2 writes a run as a ROS 2 bag (MCAP), not a tree", args.tree, field="--ros2",
+                          hint="give a run directory, or drop --ros2")
     from assembly.interop.btcpp import export_tree
 
     _write_or_print(export_tree(args.tree, Path(args.out).parent if args.out else Path("."), args.subtree_models),

@@ -111,10 +111,15 @@ def run_options(args: argparse.Namespace) -> RunOptions:
     """The `RunOptions` of `fvtree run`'s arguments."""
     from assembly.run.options import LinkOptions, RunOptions
 
-    if (args.coordinated or args.cell_name) and not args.bridge:
-        raise FvtreeError("--coordinated and --cell-name name this cell on a broker", args.tree,
-                          hint="add --bridge mqtt://HOST:PORT")
-    link = LinkOptions(args.bridge, args.cell_name, args.coordinated) if args.bridge else None
+    linked = (args.coordinated, args.cell_name, args.credentials, args.tls_ca, args.tls_cert, args.tls_key, args.unsigned)
+    if any(linked) and not args.bridge:
+        raise FvtreeError("--coordinated, --cell-name, --credentials, --tls-* and --unsigned set up a link to a broker",
+                          args.tree, hint="add --bridge mqtt://HOST:PORT")
+    def path(name: str | None) -> Path | None:
+        return None if name is None else Path(name)
+
+    link = LinkOptions(args.bridge, args.cell_name, args.coordinated, path(args.credentials), path(args.tls_ca),
+                       path(args.tls_cert), path(args.tls_key), args.link_lost_after, args.unsigned) if args.bridge else None
     return RunOptions(
         cell=args.cell, seed=args.seed, perception=args.perception, scene=args.scene,
         realtime=args.speed == "realtime", max_time=args.max_time, estop_at=args.estop_at,

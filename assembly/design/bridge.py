@@ -70,6 +70,16 @@ class DesignBridge:
             atomic_write_json(self.asbuilt_path, self.model.to_data())
         return changed
 
+    def fault(self) -> str | None:
+        """Why the run must stop now because of a live link (a coordinated cell refused by the
+        coordinator, a lease lost, a broker that refuses the login), or None: links may name one
+        with `fault()`; the run's stop policy asks after every tick."""
+        for link in self.links:
+            reason = link.fault() if hasattr(link, "fault") else None
+            if reason:
+                return reason
+        return None
+
     def close(self) -> None:
         """Close the links (each sends what it still holds first, within its own time limit)."""
         for link in self.links:

@@ -1,9 +1,11 @@
 """`RunRecorder`: every run as a Rerun recording (`runs/<id>/recording.rrd`), written as the run
 goes, and optionally streamed live to a viewer.
 
-Timelines `tick` and `cell_time`. Per tick (kept in columns, sent once per batch): robot pose and
-wrench, gripper width and object flag, the tool's 3-D transform, and per finger the marker
-displacement arrows, force, torque, slip, object area/centroid/orientation and health. When they
+Timelines `tick` and `cell_time`, and `change` on the tree's status changes (`tree/status`,
+`tree/transitions`): their number in the recording, 0, 1, ..., so that a query by it (Rerun's
+dataframe API) reads every change, where a query by tick keeps one row per tick. Per tick (kept
+in columns, sent once per batch): robot pose and wrench, gripper width and object flag, the tool's
+3-D transform, and per finger the marker displacement arrows, force, torque, slip, object area/centroid/orientation and health. When they
 change: node statuses (graph colours and a structured `tree/status` row with the feedback), the
 marker origins and validity, the feedback of running nodes (`tree/feedback`: e.g. each sample of a
 load scan), the element being built, the load profile, the events of the run (placements, faults,
@@ -63,6 +65,7 @@ LOAD_RGB = (150, 150, 150)  # the load line of a profile
 PROFILE_HEIGHT = 0.4  # the load profile is drawn this high for its span (a 2-D view keeps aspect)
 SCAN_PERIOD = 1.0  # s of cell time between two drawings of a load scan in progress
 JPEG_QUALITY = 85  # camera frames: about 13 kB each at 320x240, 0.15 ms to encode
+CHANGE_TIMELINE = "change"  # tree statuses and transitions: the status change's number in the recording
 IMAGES = {finger: f"fv/{finger}/markers/image" for finger in FINGERS}  # each finger's camera frames
 
 
@@ -94,6 +97,7 @@ class RunRecorder:
         self._statuses = ["INVALID"] * len(self._graph.paths)
         self._last = [Status.INVALID] * len(self._nodes)  # each node's last recorded status and feedback
         self._feedback = [""] * len(self._nodes)
+        self._changes = 0  # status changes sent (the `change` timeline)
         self._columns = TickColumns(0)  # the batch's ticks (made at its first tick, for its calibrations)
         self._next_tick = 0  # the tick that commands sent now belong to
         self._sent_at = time.perf_counter()
@@ -360,13 +364,13 @@ class RunRecorder:
         if taken:
             index, rows = taken
             node, status, feedback = (list(c) for c in zip(*rows))
-            send("tree/status", index, [column(name, rr.components.TextBatch(texts), 1)  # what rr.AnyValues makes of text
-                                        for name, texts in (("node", node), ("status", status), ("feedback", feedback))])
-        taken = self._sparse["transitions"].take()
-        if taken:
-            index, rows = taken
+            changes = self._change_column(len(rows))
+            send("tree/status", [*index, changes], [column(name, rr.components.TextBatch(texts), 1)  # as rr.AnyValues
+                                                    for name, texts in (("node", node), ("status", status),
+                                                                        ("feedback", feedback))])
+            index, rows = self._sparse["transitions"].take() or ([], [])  # one transition a status change
             text, level = (list(c) for c in zip(*rows))
-            send("tree/transitions", index, [_text_column(text), column(
+            send("tree/transitions", [*index, changes], [_text_column(text), column(
                 rr.TextLog.descriptor_level(), rr.components.TextLogLevelBatch(level), 1)])
         taken = self._sparse["feedback"].take()
         if taken:
@@ -398,6 +402,12 @@ class RunRecorder:
                     send(entity, index, [
                         column(rr.LineStrips2D.descriptor_strips(), rr.components.LineStrip2DBatch(strips), 1),
                         column(rr.LineStrips2D.descriptor_colors(), rr.components.ColorBatch([LOAD_RGB] * len(strips)), 1)])
+
+    def _change_column(self, n: int) -> rr.TimeColumn:
+        """The `change` timeline of the next `n` status changes: their number in the recording, so that
+        several changes in one tick stay apart (a query by tick keeps one row per tick and entity)."""
+        first, self._changes = self._changes, self._changes + n
+        return rr.TimeColumn(CHANGE_TIMELINE, sequence=np.arange(first, first + n, dtype=np.int64))
 
     def close(self) -> None:
         """The run's ticks are over: send what is kept, write it out and detach from the safety gates;

@@ -23,7 +23,7 @@ from pathlib import Path
 import rerun as rr
 
 from assembly.observe.layout import default_blueprint
-from assembly.observe.recorder import NODE_RADIUS
+from assembly.observe.recorder import CHANGE_TIMELINE, NODE_RADIUS
 from assembly.observe.tree_graph import tree_graph
 from assembly.signals import sigterm_raises_terminated
 from fvfiles.errors import FvtreeError
@@ -135,15 +135,17 @@ def recording_from_logs(run_dir: Path, out: Path) -> Path:
         stream.log("tree/graph", rr.GraphNodes(graph.paths, colors=graph.colours(statuses)))
         stream.log("tree/graph", rr.GraphEdges(graph.edges, graph_type="directed"), static=True)
     order = {p: i for i, p in enumerate(graph.paths)} if graph else {}
-    for record in transitions:
+    for change, record in enumerate(transitions):
         stream.set_time("tick", sequence=int(record.get("tick", 0)))
         stream.set_time("cell_time", duration=float(record.get("t", 0.0)))
+        stream.set_time(CHANGE_TIMELINE, sequence=change)  # as the recorder numbers status changes
         node, to = record.get("node", "?"), record.get("to", "?")
         feedback = record.get("feedback") or ""
         stream.log("tree/status", rr.AnyValues(node=node, status=to, feedback=feedback))
         stream.log("tree/transitions", rr.TextLog(f"{node}: {record.get('from')} -> {to}"
                                                   + (f" ({feedback})" if feedback else ""),
                                                   level="WARN" if to == "FAILURE" else "INFO"))
+        stream.disable_timeline(CHANGE_TIMELINE)
         if graph and node in order:  # (order is empty without a graph)
             statuses[order[node]] = to
             stream.log("tree/graph", rr.GraphNodes(graph.paths, colors=graph.colours(statuses)))

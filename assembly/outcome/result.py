@@ -16,6 +16,7 @@ class RunResult:
     message: str = ""
     profiles: dict[str, dict] = field(default_factory=dict)  # element -> load profile
     traceback: str = ""  # CRASHED: where the exception came from
+    margins: dict[str, dict[str, float]] = field(default_factory=dict)  # the supervisor's worst figures
 
     @property
     def real_time_factor(self) -> float:

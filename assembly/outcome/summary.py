@@ -47,6 +47,8 @@ class Summary:
     traceback: str = ""  # CRASHED: where the exception came from
     nothing_to_do: bool = False  # a resumed run whose elements were all placed already
     lost: list[str] = field(default_factory=list)  # what disk trouble kept from being written (file: from when, why)
+    # the supervisor's worst tick gap, arm data age and perception age beside their limits (s)
+    margins: dict[str, dict[str, float]] = field(default_factory=dict)
 
     def apply(self, verdict: Verdict) -> None:
         """Take the verdict of the scene's truth: a tree that succeeded with shortfalls ends
@@ -62,7 +64,7 @@ class Summary:
         for key in ("truth", "tree_status", "traceback"):
             if not data[key]:
                 del data[key]
-        for key in ("substitutions", "nothing_to_do", "lost"):
+        for key in ("substitutions", "nothing_to_do", "lost", "margins"):
             if not data[key]:
                 del data[key]
         return data
@@ -98,7 +100,7 @@ def summarize(result: RunResult, cell: Cell, design: DesignModel | None,
         ticks=result.ticks, sim_time_s=round(result.sim_time, 3), wall_time_s=round(result.wall_time, 3),
         real_time_factor=round(result.real_time_factor, 1),
         safety_clamps=cell.arm.clamped, arm_fault=cell.arm.fault(), gripper_fault=cell.gripper.fault(),
-        elements=elements, traceback=result.traceback)
+        elements=elements, traceback=result.traceback, margins=result.margins)
 
 
 def _element(design: DesignModel, eid: str, truth: dict[str, Any]) -> dict[str, Any]:

@@ -218,4 +218,5 @@ class Runner:
 
     def _result(self, status: str, start: float, where: str, message: str) -> RunResult:
         return RunResult(status, self.ticks, self.cell.clock.now(), time.perf_counter() - start,
-                         where, message, self.load_profiles.profiles)
+                         where, message, self.load_profiles.profiles,
+                         margins=self.supervisor.margins.report() if self.supervisor is not None else {})

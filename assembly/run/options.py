@@ -17,11 +17,20 @@ MARKS = ("placed", "planned")  # what a person may mark an element a stopped run
 @dataclass(frozen=True)
 class LinkOptions:
     """The live design link over MQTT (`--bridge`): the broker, the name this cell goes by on it
-    (default: the tree's name), and whether a coordinator hands out the elements."""
+    (default: the tree's name), whether a coordinator hands out the elements, the credentials
+    file (login, TLS files, signing secret; else the environment: assembly.design.link.security),
+    TLS files given on the command line, how long a coordinated cell may lose the link, and whether
+    it may take part in a coordinated build without a signing secret."""
 
     url: str
     cell_name: str | None = None
     coordinated: bool = False
+    credentials: Path | None = None
+    tls_ca: Path | None = None
+    tls_cert: Path | None = None
+    tls_key: Path | None = None
+    lost_after: float = 10.0  # s
+    unsigned: bool = False  # coordinated without a signing secret (a private broker only)
 
 
 @dataclass(frozen=True)

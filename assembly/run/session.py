@@ -174,9 +174,9 @@ class Run:
                     self.bridge = DesignBridge(doc.design, self.run_dir / ASBUILT_FILE, self.run_dir / EVENTS_FILE)
         self.storage = RunStorage(self.run_dir)
         if self.bridge is not None and o.link is not None:
-            from assembly.design.link.mqtt_bridge import attach  # compas_eve and paho: only when linked
+            from assembly.design.link.mqtt_bridge import attach_options  # compas_eve and paho: only when linked
 
-            attach(self.bridge, o.link.url, o.link.cell_name or doc.name, o.link.coordinated)
+            attach_options(self.bridge, o.link, o.link.cell_name or doc.name, o.cell)
         return True
 
     @property

@@ -57,6 +57,8 @@ class StopPolicy:
         self.estop_at = estop_at
         self.max_time = max_time
         self.checks: list[Callable[[], Stop | None]] = [self._estop, self._time_limit]
+        if bridge is not None and bridge.links:
+            self.checks.append(self._design_link)
         self._running = ""  # the tip when this tick began: what an e-stop interrupts
 
     def before_tick(self, tree: py_trees.trees.BehaviourTree) -> None:
@@ -86,6 +88,12 @@ class StopPolicy:
         if self.cell.clock.now() > self.max_time:
             return Stop("TIMEOUT", f"no result within {self.max_time} s of cell time (during {self.tip.path})")
         return None
+
+    def _design_link(self) -> Stop | None:
+        """A live design link that must stop the cell (a refused or lost claim, a refused login)."""
+        assert self.bridge is not None
+        reason = self.bridge.fault()
+        return None if reason is None else Stop("FAULT", f"design link: {reason} (during {self.tip.path})")
 
     def interrupted(self, interrupt: KeyboardInterrupt) -> Stop:
         """The stop for Ctrl-C or SIGTERM."""

@@ -63,6 +63,31 @@ class Supervision:
         return cls(float(stale), policy)
 
 
+class Margins:
+    """The worst of what the supervisor measured over a run, beside the limit it holds each to: how
+    close a run came to a stop for nothing (a loaded machine's tick gaps and data ages), so that a
+    lab can set its cell file's limits from measured figures (`summary.json`'s `margins`)."""
+
+    def __init__(self, arm_stale_after: float, perception_stale_after: float, watchdog_timeout: float):
+        self.limits = {"arm_state_age_s": arm_stale_after, "perception_age_s": perception_stale_after,
+                       "tick_gap_s": watchdog_timeout}
+        self.worst = dict.fromkeys(self.limits, 0.0)
+        self._last_tick: float | None = None
+
+    def tick(self, now: float) -> None:
+        if self._last_tick is not None and now - self._last_tick > self.worst["tick_gap_s"]:
+            self.worst["tick_gap_s"] = now - self._last_tick
+        self._last_tick = now
+
+    def saw(self, what: str, age: float) -> None:
+        if age > self.worst[what]:
+            self.worst[what] = age
+
+    def report(self) -> dict[str, dict[str, float]]:
+        """{measure: {"worst": s, "limit": s}}, rounded to the millisecond."""
+        return {k: {"worst": round(self.worst[k], 3), "limit": self.limits[k]} for k in self.limits}
+
+
 class Supervisor:
     """Pre-tick handler (after the perception stage) that latches a stop on the first cause,
     and a `StopPolicy` check that then ends the run with status FAULT."""
@@ -75,6 +100,8 @@ class Supervisor:
         self.cause: str | None = None  # the latched cause
         self.tripped_at: float | None = None  # cell time of the trip
         self._running = ""  # the node running when the cause was found
+        self.margins = Margins(cell.arm.limits.stale_after, settings.perception_stale_after,
+                               cell.arm.limits.watchdog_timeout)
 
     def __call__(self, tree: py_trees.trees.BehaviourTree) -> None:
         if self.cause is not None:
@@ -108,7 +135,9 @@ class Supervisor:
         if fault:
             return f"gripper fault: {fault}"
         now = self.cell.clock.now()
+        self.margins.tick(now)
         age = now - arm.state_stamp()
+        self.margins.saw("arm_state_age_s", age)
         if not age <= arm.limits.stale_after:
             return f"link to the arm lost: its state is {age:.3f} s old (limit {arm.limits.stale_after} s)"
         # The wrench the perception stage just read through the arm's safety layer (a second read costs
@@ -125,6 +154,7 @@ class Supervisor:
             if state is None:
                 return f"no perception on {key}"
             age = now - state.stamp
+            self.margins.saw("perception_age_s", age)
             if not age <= self.settings.perception_stale_after:
                 return (f"perception on {key} is {age:.3f} s old "
                         f"(limit {self.settings.perception_stale_after} s)")

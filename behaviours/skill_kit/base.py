@@ -304,6 +304,10 @@ class Skill(py_trees.behaviour.Behaviour):
         """A move or twist was in progress at the start of the tick."""
         return bool(self._state(keys.ROBOT_MOVING))
 
+    def held_at_box(self) -> str | None:
+        """The workspace box's face where the safety layer stopped this skill's twist, or None."""
+        return self.cell.arm.held_at
+
     def gripper_width(self) -> float:
         return float(self._state(keys.GRIPPER_WIDTH))
 

@@ -19,6 +19,11 @@ class SkillArm(Protocol):
     def stop(self) -> None:
         """Decelerate to standstill and drop any pending command."""
 
+    @property
+    def held_at(self) -> str | None:
+        """The workspace box's face (e.g. "z min 0.35 m") where the safety layer stopped the last
+        twist from going on, or None: a skill that moves until something happens checks it."""
+
 
 class SkillGripper(Protocol):
     @property

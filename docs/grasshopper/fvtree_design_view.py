@@ -36,6 +36,7 @@ def _state(broker, cell):
         state["transport"].close()
     host, _, port = broker.partition(":")
     transport = MqttTransport(host, int(port or 1883))
+    transport.client.suppress_exceptions = True  # a message that fails to decode must not deafen the component
     state = {"where": (broker, cell), "transport": transport, "plan": None, "answers": []}
     component = ghenv.Component  # noqa: F821 - given by Grasshopper
 
@@ -43,6 +44,9 @@ def _state(broker, cell):
         Rhino.RhinoApp.InvokeOnUiThread(System.Action(lambda: component.ExpireSolution(True)))
 
     def on_plan(graph):
+        if not hasattr(graph, "nodes"):  # not a COMPAS Graph (a bad retained plan): keep the last good one
+            state["answers"] = (state["answers"] + ["dropped a plan that is not a COMPAS Graph"])[-5:]
+            return
         state["plan"] = graph
         refresh()
 

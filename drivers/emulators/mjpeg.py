@@ -3,10 +3,14 @@ mjpg-streamer): synthetic frames whose top-left pixel row encodes the frame numb
 
     python -m drivers.emulators.mjpeg --host 127.0.0.4 --port 8080 [--fps 30]
         [--size 320x240] [--pattern bars|fingervision] [--drop-after N]
+        [--truncate-after N] [--freeze-below-after N]
 
 The stream is at http://HOST:PORT/stream.mjpg. `--pattern fingervision` streams rendered
 FingerVision frames (markers at rest, no contact) that the perception pipeline can calibrate on.
-`--drop-after N` closes every connection after N frames (a flaky camera; the driver must reopen).
+Faults of real cameras, each from frame N on: `--drop-after N` closes every connection (a flaky
+camera; the driver must reopen); `--truncate-after N` sends only the first half of each JPEG (its
+Content-Length says so: a camera whose encoder or link cuts frames short); `--freeze-below-after N`
+sends whole JPEGs whose lower half stays the image of frame N (a stuck sensor area).
 Prints `ready` once it listens.
 """
 
@@ -50,8 +54,10 @@ class MjpegServer:
     """A threaded HTTP server streaming synthetic MJPEG frames; usable in-process or via main()."""
 
     def __init__(self, host: str, port: int, fps: float = 30.0, size: tuple[int, int] = (320, 240),
-                 drop_after: int | None = None, pattern: str = "bars"):
+                 drop_after: int | None = None, pattern: str = "bars", truncate_after: int | None = None,
+                 freeze_below_after: int | None = None):
         self.fps, self.size, self.drop_after = fps, size, drop_after
+        self.truncate_after, self.freeze_below_after = truncate_after, freeze_below_after
         self.render = fingervision_renderer(size) if pattern == "fingervision" else synthetic_frame
         self.connections = 0
         server = self
@@ -76,13 +82,18 @@ class MjpegServer:
 
     def stream(self, out) -> None:
         """Write frames at `fps` until the client leaves (or `drop_after` frames were sent)."""
-        index, next_at = 0, time.monotonic()
+        index, next_at, stuck = 0, time.monotonic(), None
         try:
             while self.drop_after is None or index < self.drop_after:
-                _, jpg = cv2.imencode(".jpg", self.render(index, self.size),
-                                       [cv2.IMWRITE_JPEG_QUALITY, 90])
+                image = self.render(index, self.size)
+                if self.freeze_below_after is not None and index >= self.freeze_below_after:
+                    stuck = image[image.shape[0] // 2:].copy() if stuck is None else stuck
+                    image[image.shape[0] // 2:] = stuck
+                jpg = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 90])[1].tobytes()
+                if self.truncate_after is not None and index >= self.truncate_after:
+                    jpg = jpg[:len(jpg) // 2]
                 out.write(f"--{BOUNDARY}\r\nContent-Type: image/jpeg\r\n"
-                          f"Content-Length: {len(jpg)}\r\n\r\n".encode() + jpg.tobytes() + b"\r\n")
+                          f"Content-Length: {len(jpg)}\r\n\r\n".encode() + jpg + b"\r\n")
                 out.flush()
                 index += 1
                 next_at += 1.0 / self.fps
@@ -107,11 +118,15 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--size", default="320x240", help="WIDTHxHEIGHT")
     p.add_argument("--pattern", choices=["bars", "fingervision"], default="bars")
     p.add_argument("--drop-after", type=int, default=None, help="close connections after N frames")
+    p.add_argument("--truncate-after", type=int, default=None, help="send half of each JPEG from frame N on")
+    p.add_argument("--freeze-below-after", type=int, default=None,
+                   help="keep the image's lower half of frame N from then on")
     args = p.parse_args(argv)
     if not is_loopback(args.host):
         p.error("the emulator binds loopback addresses only (127.0.0.0/8, ::1, localhost)")
     w, h = (int(v) for v in args.size.lower().split("x"))
-    server = MjpegServer(args.host, args.port, args.fps, (w, h), args.drop_after, args.pattern).start()
+    server = MjpegServer(args.host, args.port, args.fps, (w, h), args.drop_after, args.pattern,
+                         args.truncate_after, args.freeze_below_after).start()
     stop = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
     signal.signal(signal.SIGINT, lambda *_: stop.set())

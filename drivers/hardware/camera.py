@@ -3,7 +3,9 @@ file, or an MJPEG/RTSP URL.
 
 Each camera runs its own capture thread that keeps only the newest frame with its cell-clock
 stamp, so `read()` never blocks a tick and several cameras capture at once. When a stream drops,
-the thread releases it and reopens it every `reopen_after` seconds until it comes back.
+the thread releases it and reopens it every `reopen_after` seconds until it comes back. An
+http(s) URL is read as MJPEG by `mjpeg_stream`, which checks every JPEG whole: a truncated or
+corrupt frame is counted and reported (`corrupt_frames`), never handed out concealed.
 """
 
 from __future__ import annotations
@@ -17,7 +19,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from drivers.protocols import Clock
+from drivers.hardware.mjpeg_stream import CorruptFrame, MjpegStream, is_mjpeg_url
+from drivers.protocols import Clock, DriverFault
 
 log = logging.getLogger(__name__)
 
@@ -53,6 +56,8 @@ class OpenCvCamera:
         self._seq = 0  # frames captured
         self._returned = 0  # seq of the last frame handed out by read()
         self.reopens = 0
+        self._corrupt = 0  # corrupt frames since the last `corrupt_frames()` call
+        self._corrupt_reason = ""
         self.ended = False  # a video file without `loop` played to its end
         self.last_error: str | None = None
         self._stop = threading.Event()
@@ -71,6 +76,13 @@ class OpenCvCamera:
         self._stop.set()
         self._thread.join(timeout=self.config.open_timeout + 1.0)
 
+    def corrupt_frames(self) -> tuple[int, str]:
+        """How many frames arrived corrupt (truncated, not a JPEG, undecodable) since the last call,
+        and why the last of them was; (0, "") when none."""
+        with self._lock:
+            got, self._corrupt, self._corrupt_reason = (self._corrupt, self._corrupt_reason), 0, ""
+        return got
+
     # --- status -------------------------------------------------------------------------------
     @property
     def frames(self) -> int:
@@ -85,8 +97,16 @@ class OpenCvCamera:
         return self._seq > 0
 
     # --- capture thread -----------------------------------------------------------------------
-    def _open(self) -> cv2.VideoCapture | None:
+    def _open(self) -> cv2.VideoCapture | MjpegStream | None:
         c = self.config
+        if c.kind == "url" and is_mjpeg_url(str(c.source)):
+            try:
+                stream = MjpegStream(str(c.source), c.open_timeout)
+            except DriverFault as exc:
+                self.last_error = f"camera {self.name}: {exc}"
+                return None
+            self.last_error = None
+            return stream
         if c.kind == "url":
             ms = int(c.open_timeout * 1000)
             cap = cv2.VideoCapture(str(c.source), cv2.CAP_FFMPEG,
@@ -117,7 +137,12 @@ class OpenCvCamera:
                     self._stop.wait(self.config.reopen_after)
                     continue
                 playback = self._playback_period(cap)
-            ok, frame = cap.read()
+            try:
+                ok, frame = _next_frame(cap)
+            except CorruptFrame as exc:
+                with self._lock:
+                    self._corrupt, self._corrupt_reason = self._corrupt + 1, str(exc)
+                continue
             if not ok:
                 if self.config.kind == "file" and self.config.loop and self._seq:
                     cap.set(cv2.CAP_PROP_POS_FRAMES, 0)
@@ -141,8 +166,17 @@ class OpenCvCamera:
         if cap is not None:
             cap.release()
 
-    def _playback_period(self, cap: cv2.VideoCapture) -> float:
+    def _playback_period(self, cap: cv2.VideoCapture | MjpegStream) -> float:
         if self.config.kind != "file":
             return 0.0
         fps = self.config.fps or cap.get(cv2.CAP_PROP_FPS) or 30.0
         return 1.0 / fps
+
+
+def _next_frame(cap: cv2.VideoCapture | MjpegStream) -> tuple[bool, np.ndarray | None]:
+    """(True, image) or (False, None) when the source ended or broke; CorruptFrame from an MJPEG
+    stream whose next part is not a whole JPEG."""
+    if isinstance(cap, MjpegStream):
+        frame = cap.read()
+        return frame is not None, frame
+    return cap.read()

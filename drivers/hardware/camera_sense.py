@@ -1,7 +1,7 @@
 """The perception stage of a real cell: each finger's camera through the FingerVision pipeline,
 one TactileState per finger per tick. Calibrates at start on frames without contact (or loads
 saved marker maps); a camera that stops delivering gives an unhealthy state, never an old one
-dressed as new."""
+dressed as new, and a frame that arrived corrupt makes that tick's state unhealthy."""
 
 from __future__ import annotations
 
@@ -41,6 +41,7 @@ def fingervision_sense(cameras: dict[str, OpenCvCamera], clock: Clock, config: F
         now = clock.now()
         for finger in FINGERS:
             got = cameras[finger].read()
+            corrupt, broken = cameras[finger].corrupt_frames()
             if got is not None:
                 last[finger] = pipelines[finger].process(*got)
                 sense.frames.keep(finger, *got)
@@ -48,6 +49,10 @@ def fingervision_sense(cameras: dict[str, OpenCvCamera], clock: Clock, config: F
                 why = cameras[finger].last_error or "stream stalled"
                 last[finger] = TactileState(finger, now, healthy=False, health_reason=(
                     f"camera {finger}: no frame for {stale_after:g} s ({why})"))
+            if corrupt:  # a stream that sends broken frames is not trusted, even between good ones
+                last[finger] = TactileState(finger, now, healthy=False, health_reason=(
+                    f"camera {finger}: {corrupt} corrupt frame{'s' if corrupt > 1 else ''} since the last "
+                    f"tick ({broken})"))
         return dict(last)
 
     sense.frames = LatestFrames()  # for the run's recording

@@ -176,6 +176,11 @@ class UrArm:
                       self.config.acceleration, 0.0)
         self._twist = v if any(v) else None
 
+    def braking_distance(self, speed: float) -> float:
+        """Metres the TCP travels while a twist of `speed` m/s is ramped to rest at the twist
+        acceleration: what the safety layer adds to its one-period look-ahead at the box."""
+        return speed * speed / (2.0 * self.config.acceleration)
+
     def servo_linear(self, pose: np.ndarray) -> None:
         """Stream one servo target; call once per control period (1 / control_rate)."""
         self._command("servoL", "servo", self._control.servoL, _vec(pose), 0.0, 0.0,

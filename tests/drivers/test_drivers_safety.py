@@ -84,6 +84,47 @@ def test_twist_never_drives_out_through_a_face_of_the_box():
     assert arm.pose()[2] == pytest.approx(0.1) and arm.pose()[0] == pytest.approx(0.025)
 
 
+def test_a_held_twist_stops_at_each_face_it_would_cross():
+    """Commanded once and held (as descend_until_contact does), a twist is checked every control
+    period one period ahead: each component that would cross a face is dropped there."""
+    safe, arm, clock = make()
+    safe.speed_linear(np.array([0.05, 0.0, -0.05, 0, 0, 0]))
+    lowest = HOME[2]
+    for _ in range(2000):  # 20 s: the twist would go 1 m down and 1 m along x
+        run(safe, arm, clock, clock.period)
+        lowest = min(lowest, arm.pose()[2])
+    assert 0.1 <= lowest < 0.1 + 0.05 * clock.period + 1e-12
+    assert 0.5 - 0.05 * clock.period < arm.pose()[0] <= 0.5
+    assert not arm.is_moving() and safe.fault() is None
+    assert safe.held_at == "x max 0.5 m" and safe.clamped == 2
+
+
+def test_a_held_twist_about_to_leave_the_box_is_a_fault_when_the_cell_refuses():
+    safe, arm, clock = make(out_of_workspace="refuse")
+    safe.speed_linear(np.array([0.0, 0.0, -0.2, 0, 0, 0]))
+    run(safe, arm, clock, 5.0)
+    assert 0.1 <= arm.pose()[2] < 0.1 + 0.2 * clock.period + 1e-12
+    assert "would take the TCP" in safe.fault() and "through the box's z min 0.1 m" in safe.fault()
+    assert not arm.is_moving()
+
+
+class BrakingArm(KinematicArm):
+    """A kinematic arm that declares the distance a real one needs to brake (0.5 m/s^2)."""
+
+    def braking_distance(self, speed: float) -> float:
+        return speed * speed / (2 * 0.5)
+
+
+def test_the_look_ahead_adds_the_braking_distance_the_arm_declares():
+    clock = SimClock(0.01)
+    arm = BrakingArm(clock, HOME)
+    safe = SafeArm(arm, SafetyLimits(**BOX), clock)
+    safe.speed_linear(np.array([0.0, 0.0, -0.2, 0, 0, 0]))
+    run(safe, arm, clock, 5.0)
+    braking = 0.2 ** 2 / (2 * 0.5)  # 40 mm: a real arm would need that much to stop from 0.2 m/s
+    assert 0.1 + braking - 0.2 * clock.period <= arm.pose()[2] < 0.1 + braking + 0.2 * clock.period
+
+
 def test_force_above_the_cap_stops_and_latches():
     safe, arm, _ = make(max_force=50.0)
     safe.speed_linear(np.array([0, 0, -0.01, 0, 0, 0]))

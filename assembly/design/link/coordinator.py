@@ -14,6 +14,11 @@ only blocked elements are left is told to wait. A cell that asks again under the
 its claim is live (a restarted cell) gets the same element back. After every change the
 coordinator publishes its model, retained, as a COMPAS Graph; cells learn the others' placements
 from it. The state is saved atomically after every change, so a restarted coordinator resumes.
+
+With the cells' secrets (its credentials file's `cells`), a request counts only when signed by the
+cell it names (`assembly.design.link.signing`) under a request id that cell has not used before;
+anything else is refused and logged, however it reached the claims topic. Answers and the plan are
+signed for each cell, so no other client can pass for the coordinator either.
 """
 
 from __future__ import annotations
@@ -29,7 +34,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from assembly.design.link import signing
 from assembly.design.link.compas_data import to_graph
+from assembly.design.link.security import LinkSecurity
 from assembly.design.link.topics import DesignTopics, check_name
 from assembly.design.link.transport import LinkTransport
 from assembly.design.model import DesignModel
@@ -39,6 +46,7 @@ from fvfiles.json_files import atomic_write_json
 log = logging.getLogger(__name__)
 OPS = ("claim", "renew", "placing", "placed", "failed")
 MAX_BYTES = 16_000
+KEPT_REQUESTS = 4096  # request ids remembered per cell, to refuse a replayed request
 
 
 @dataclass
@@ -53,7 +61,7 @@ class Coordinator:
     """Owns a design model and answers the cells' claims (see the module docstring)."""
 
     def __init__(self, model: DesignModel, url: str, lease: float = 10.0, state_path: Path | None = None,
-                 clock=time.monotonic):
+                 clock=time.monotonic, security: LinkSecurity | None = None):
         self.model = model
         self.name = check_name(model.graph.graph.get("name") or "design", "design name")
         self.topics = DesignTopics(self.name)
@@ -63,7 +71,9 @@ class Coordinator:
         self.claims: dict[str, Claim] = {}  # element -> its live claim
         self.log: list[dict] = []  # what happened, in order: grants, placements, expiries, refusals
         self._inbox: queue.Queue[bytes | None] = queue.Queue()
-        self.transport = LinkTransport(url, f"fvtree-coordinator-{self.name}-{uuid.uuid4().hex[:6]}")
+        self.secrets: dict[str, bytes] = dict(security.cells) if security is not None else {}
+        self._seen: dict[str, dict[str, None]] = {}  # cell -> request ids taken (insertion-ordered)
+        self.transport = LinkTransport(url, f"fvtree-coordinator-{self.name}-{uuid.uuid4().hex[:6]}", security)
         self.transport.listen(self.topics.claims, self._inbox.put)
         self.transport.on("ready", lambda **_: self.publish())
         self._thread: threading.Thread | None = None
@@ -109,8 +119,10 @@ class Coordinator:
             self.transport.send(self.topics.errors, {"error": str(exc), "topic": self.topics.claims})
             return
         answer = getattr(self, "_" + request["op"])(request)
-        self.transport.send(self.topics.replies(request["cell"]), {"request": request.get("request"),
-                                                                    "op": request["op"], **answer})
+        cell = request["cell"]
+        message = {"request": request.get("request"), "op": request["op"], "cell": cell, **answer}
+        self.transport.send(self.topics.replies(cell), signing.sign(self.secrets[cell], message)
+                            if self.secrets else message)
 
     def _parse(self, payload: bytes) -> dict:
         if len(payload) > MAX_BYTES:
@@ -125,11 +137,30 @@ class Coordinator:
             check_name(request.get("cell"), "cell name")
         except TreeError as exc:
             raise ValueError(exc.message) from None
+        if self.secrets:
+            self._check_signed(request)
         if request["op"] != "claim" and not isinstance(request.get("lease"), str):
             raise ValueError(f"{request['op']}: field 'lease' (the lease id of the claim) is missing")
         if request["op"] in ("placing", "placed") and not _pose(request.get("pose")):
             raise ValueError(f"{request['op']}: field 'pose' must be 6 finite numbers")
         return request
+
+    def _check_signed(self, request: dict) -> None:
+        """ValueError unless the request is signed by the cell it names, under a new request id."""
+        cell = request["cell"]
+        if cell not in self.secrets:
+            raise ValueError(f"{request['op']} from {cell!r}: not a cell of this design (no secret for it)")
+        try:
+            signing.verify(self.secrets[cell], request)
+        except signing.SignatureError as exc:
+            raise ValueError(f"{request['op']} in the name of {cell}: {exc}") from None
+        rid = request.get("request")
+        seen = self._seen.setdefault(cell, {})
+        if not isinstance(rid, str) or rid in seen:
+            raise ValueError(f"{request['op']} from {cell}: request id {rid!r} used before (a replay)")
+        seen[rid] = None
+        if len(seen) > KEPT_REQUESTS:
+            del seen[next(iter(seen))]
 
     # ---- requests -------------------------------------------------------------------------------
     def _claim(self, request: dict) -> dict:
@@ -231,7 +262,9 @@ class Coordinator:
 
     def publish(self) -> None:
         """The model, retained: the cells stand what others placed."""
-        self.transport.send(self.topics.plan, to_graph(self.model), retain=True)
+        encoded = self.transport.codec.encode(to_graph(self.model))
+        self.transport.send_raw(self.topics.plan, signing.sign_plan(encoded, self.secrets) if self.secrets
+                                else encoded, retain=True)
 
 
 def _number(value: Any) -> bool:

@@ -17,6 +17,9 @@ Several cells on one design, under `fvtree/design/DESIGN/`:
   log        out: what the coordinator decided, in order {"what": granted|placing|placed|failed|
              expired|stuck|refused, "cell", "element", "time", ...}
   errors     out: {"error", "topic"}: a request that could not be read
+With signing secrets (assembly.design.link.signing) a request and an answer also carry "sig" (an
+answer names its "cell"), and the plan carries "signatures" {CELL: sig} beside "dtype" and "data".
+Who may publish where on a secured broker: examples/secure_broker/acl.
 """
 
 from __future__ import annotations

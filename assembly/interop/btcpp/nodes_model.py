@@ -1,6 +1,10 @@
 """The `<TreeNodesModel>` of an exported tree: every skill as an Action with its params as typed
 input ports (default, unit, range and meaning in the port's text), and the custom nodes that carry
-our own kinds, so Groot2 shows every node in its palette with its ports."""
+our own kinds, so Groot2 shows every node in its palette with its ports.
+
+BT.CPP makes a port without a default mandatory (its generated XSD says `use="required"`), so an
+optional param without a default (`move_to.pose`) is declared with the empty default: an empty port
+is a param left out, both ways."""
 
 from __future__ import annotations
 
@@ -12,30 +16,34 @@ from behaviours.skill_kit.registry import SKILLS
 
 PORT_TYPES = {"float": "double", "int": "int", "bool": "bool", "str": "std::string", "vector": "std::vector<double>"}
 
-# Our kinds without a BT.CPP built-in: ID -> (model element, {port: (type, text)}, description).
-CUSTOM_NODES: dict[str, tuple[str, dict[str, tuple[str, str]], str]] = {
+NOT_GIVEN = ""  # the default of an optional port without one: the param is left out
+# Our kinds without a BT.CPP built-in: ID -> (model element, {port: (type, text, default)}, description);
+# a default of None makes the port mandatory.
+CUSTOM_NODES: dict[str, tuple[str, dict[str, tuple[str, str, str | None]], str]] = {
     "ForEachElement": (
         "Decorator",
         {"elements": ("std::vector<std::string>",
-                      "element ids to build, ';'-separated (all unplaced elements of the design when absent)")},
+                      "element ids to build, ';'-separated (all unplaced elements of the design when empty)",
+                      NOT_GIVEN)},
         "fvtree for_each_element: the child once per unplaced design element, in build order, on /task/element"),
     "StatusMap": (
-        "Decorator", {"map": ("std::string", "status pairs 'from:to;...' of success, failure, running")},
+        "Decorator", {"map": ("std::string", "status pairs 'from:to;...' of success, failure, running", None)},
         "fvtree status_map: returns the child's status translated through the map"),
     "Guard": (
         "Decorator", {},
         "fvtree guard: ticks the child while its _while script holds, halting it and failing when it turns false"),
     "FvParallel": (
         "Control",
-        {"policy": ("std::string", "all, one or selected"),
-         "synchronise": ("bool", "children that succeeded are not ticked again"),
-         "selected": ("std::vector<std::string>", "with policy selected: the children whose success counts")},
+        {"policy": ("std::string", "all, one or selected", None),
+         "synchronise": ("bool", "children that succeeded are not ticked again", "false"),
+         "selected": ("std::vector<std::string>", "with policy selected: the children whose success counts",
+                      NOT_GIVEN)},
         "fvtree parallel with a policy BT.CPP's Parallel cannot spell"),
     "BlackboardCheck": (
         "Condition",
-        {"key": ("std::string", "blackboard key, e.g. /fv/left.slip"),
-         "op": ("std::string", "eq, ne, lt, le, gt, ge or exists"),
-         "value": ("std::string", "JSON value to compare with")},
+        {"key": ("std::string", "blackboard key, e.g. /fv/left.slip", None),
+         "op": ("std::string", "eq, ne, lt, le, gt, ge or exists", None),
+         "value": ("std::string", "JSON value to compare with (empty with exists)", NOT_GIVEN)},
         "fvtree condition that a BT.CPP script cannot spell (exists, lists)"),
 }
 
@@ -67,9 +75,10 @@ def skill_model(name: str) -> ET.Element:
 
 def _port(node: ET.Element, name: str, p: Param) -> None:
     attrs = {"name": name, "type": PORT_TYPES[p.type]}
-    if not p.required and p.default is not None:
-        attrs["default"] = to_port(p.default)
-    ET.SubElement(node, "input_port", attrs).text = _port_text(p)
+    if not p.required:
+        attrs["default"] = NOT_GIVEN if p.default is None else to_port(p.default)
+    ET.SubElement(node, "input_port", attrs).text = _port_text(p) + (" (empty: not given)" if p.default is None
+                                                                      and not p.required else "")
 
 
 def tree_nodes_model(subtrees: dict[str, dict[str, Param]] | None = None) -> ET.Element:
@@ -81,8 +90,9 @@ def tree_nodes_model(subtrees: dict[str, dict[str, Param]] | None = None) -> ET.
         model.append(skill_model(name))
     for node_id, (element, ports, doc) in CUSTOM_NODES.items():
         node = ET.SubElement(model, element, {"ID": node_id})
-        for pname, (ptype, text) in ports.items():
-            ET.SubElement(node, "input_port", {"name": pname, "type": ptype}).text = text
+        for pname, (ptype, text, default) in ports.items():
+            attrs = {"name": pname, "type": ptype, **({} if default is None else {"default": default})}
+            ET.SubElement(node, "input_port", attrs).text = text
         ET.SubElement(node, "description").text = doc
     for name, params in (subtrees or {}).items():
         node = ET.SubElement(model, "SubTree", {"ID": name, "editable": "true"})

@@ -8,6 +8,7 @@ validated like any tree file before it is returned.
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -16,9 +17,18 @@ from typing import Any
 import yaml
 
 from assembly.errors import TreeError, TreeErrors
-from assembly.interop.btcpp.nodes_model import PORT_TYPES
-from assembly.interop.btcpp.values import PORT_REF, PortError, from_port, read_condition_script
-from assembly.interop.btcpp.writer import PI_TARGET, rebase
+from assembly.interop.btcpp.declarations import default_ports, groot_subtree_params, metadata
+from assembly.interop.btcpp.nodes_model import NOT_GIVEN
+from assembly.interop.btcpp.relocate import node_lines, relocate
+from assembly.interop.btcpp.values import (
+    PORT_REF,
+    PortError,
+    from_port,
+    key_of_identifier,
+    literal,
+    read_condition_script,
+)
+from assembly.interop.btcpp.writer import DEFAULTS_ATTR, rebase
 from assembly.language.reader import load_tree
 from assembly.language.validator import known_blackboard_keys
 from behaviours.skill_kit.model_files import UsesModel
@@ -45,6 +55,7 @@ NO_EQUIVALENT = {
     "UnsetBlackboard": "it writes the blackboard; in fvtree only skills write it",
     "Precondition": "use a Guard with a _while script, or a ScriptCondition first in a Sequence",
 }
+INT_PORTS = {(tag, attr) for tag, (_, attr, _) in COUNTED.items()}
 PRECONDITIONS = {
     "_skipIf": "py_trees has no SKIPPED status",
     "_failureIf": "put a ScriptCondition before the node in a Sequence",
@@ -57,22 +68,60 @@ PRECONDITIONS = {
 
 
 @dataclass
+class Scope:
+    """What a `{key}` port can stand for in the tree being read: a param of the subtree (`$key`),
+    or the default the file's `<TreeNodesModel>` declares for a port of the main tree."""
+
+    params: set[str] = field(default_factory=set)
+    defaults: dict[str, str] = field(default_factory=dict)
+    subtree: bool = False  # a subtree's body (else the main tree)
+
+
+@dataclass
 class _Reader:
     file: str
     out_dir: Path
     subtree_types: dict[str, dict[str, str]]  # subtree -> param -> declared type
+    subtree_defaults: dict[str, dict[str, str]] = field(default_factory=dict)  # subtree -> param -> default port
     errors: list[TreeError] = field(default_factory=list)
     keys: set[str] = field(default_factory=known_blackboard_keys)
+    scope: Scope = field(default_factory=Scope)
+    lines: dict[int, int] = field(default_factory=dict)  # id of a node mapping made -> its XML line
+    seen: set[int] = field(default_factory=set)  # ids of the XML nodes read
 
     def refuse(self, x: XmlNode, message: str, hint: str | None = None) -> None:
         self.errors.append(TreeError(message, self.file, x.line, f"<{x.tag}>", hint))
 
     def port(self, x: XmlNode, attr: str, type_: str) -> Any:
         try:
-            return from_port(x.attrs[attr], type_)
+            value = from_port(x.attrs[attr], type_)
         except PortError as exc:
             self.refuse(x, f"{attr}: {exc}")
             return None
+        ref = PORT_REF.match(x.attrs[attr])
+        return self.reference(x, attr, ref.group(1), lambda text: from_port(text, type_)) if ref else value
+
+    def reference(self, x: XmlNode, attr: str, name: str, read: Callable[[str], Any]) -> Any:
+        """What a `{name}` port (or a script's bare `name`) is here: the subtree's param `$name`,
+        the main tree's declared default for port `name` (read by `read`), or refused (None)."""
+        if name in self.scope.params:
+            return "$" + name
+        if name in self.scope.defaults:
+            try:
+                return read(self.scope.defaults[name])
+            except PortError as exc:
+                self.refuse(x, f"{attr}: the default of the tree's port {name!r}: {exc}")
+                return None
+        try:
+            key = key_of_identifier(name, self.keys)
+            hint = (f"{key} is read by the skills that need it, not passed as a param; in fvtree only conditions "
+                    f"read keys (ScriptCondition code=\"@{name} == ...\")")
+        except PortError:
+            hint = (f"write the value here, declare a port {name!r} with a default for this tree "
+                    f"(Groot2: the tree's port list), or make this part a subtree with a param {name!r}")
+        where = "a param of this subtree" if self.scope.subtree else "a port of the main tree with a default"
+        self.refuse(x, f"{attr}: {{{name}}} is not {where}: fvtree params are fixed when the tree loads", hint)
+        return None
 
     def children(self, x: XmlNode, one: bool) -> list[dict]:
         if one and len(x.children) != 1:
@@ -96,18 +145,27 @@ class _Reader:
         return out
 
     def node(self, x: XmlNode) -> dict | None:
+        self.seen.add(id(x))
         for attr in x.attrs:
             if attr in PRECONDITIONS:
                 self.refuse(x, f"attribute {attr} has no equivalent", PRECONDITIONS[attr])
         before = len(self.errors)
         body = self._node(x)
+        for child in x.children:  # a refused node's children are read all the same, for their own refusals
+            if id(child) not in self.seen:
+                self.node(child)
         if body is None or len(self.errors) > before:
             return None
+        self.lines[id(body)] = x.line
         if "_description" in x.attrs:
             body["doc"] = x.attrs["_description"]
         if "_while" in x.attrs and x.tag != "Guard":  # a scripted pre-condition: a guard around the node
             cond = self.condition(x, x.attrs["_while"])
-            return None if cond is None else {"guard": f"{_name_of(body)}_while", "while": cond, "child": body}
+            if cond is None:
+                return None
+            guard = {"guard": f"{_name_of(body)}_while", "while": cond, "child": body}
+            self.lines[id(guard)] = x.line
+            return guard
         return body
 
     def own_attrs(self, x: XmlNode, allowed: set[str]) -> None:
@@ -117,10 +175,16 @@ class _Reader:
 
     def condition(self, x: XmlNode, code: str) -> dict | None:
         try:
-            return read_condition_script(code, self.keys)
+            cond = read_condition_script(code, self.keys)
         except PortError as exc:
             self.refuse(x, f"script: {exc}")
             return None
+        value = cond["value"]
+        if isinstance(value, str) and value.startswith("$"):  # a bare name: a port of the tree
+            cond["value"] = self.reference(x, "script", value[1:], _literal_default)
+            if cond["value"] is None:
+                return None
+        return cond
 
     def _node(self, x: XmlNode) -> dict | None:
         """The fvtree node of one BT.CPP node (its pre-conditions aside), or None if it is refused."""
@@ -158,7 +222,7 @@ class _Reader:
         a = x.attrs
         out = {"parallel": _name(x), "policy": a.get("policy"), "synchronise": self.port(x, "synchronise", "bool")
                if "synchronise" in a else False}
-        if "selected" in a:
+        if a.get("selected", NOT_GIVEN) != NOT_GIVEN:
             out["selected"] = a["selected"].split(";")
         return {**out, "children": self.children(x, one=False)}
 
@@ -207,7 +271,7 @@ class _Reader:
         """The exporter's ForEachElement: for_each_element, over the listed elements if any."""
         self.own_attrs(x, {"elements", "_while"})
         out: dict[str, Any] = {"for_each_element": _name(x)}
-        if "elements" in x.attrs:
+        if x.attrs.get("elements", NOT_GIVEN) != NOT_GIVEN:
             out["elements"] = [e for e in x.attrs["elements"].split(";") if e]
         return {**out, "child": self._child(x)}
 
@@ -220,8 +284,15 @@ class _Reader:
     def _blackboard_check(self, x: XmlNode) -> dict:
         """The exporter's BlackboardCheck: a condition, its value JSON."""
         self.own_attrs(x, {"key", "op", "value", "_while"})
-        out = {"condition": _name(x), "key": x.attrs.get("key"), "op": x.attrs.get("op")}
-        if "value" in x.attrs:
+        key = x.attrs.get("key", "")
+        ref = PORT_REF.match(key) or re.match(r"^\{(/.*)\}$", key)
+        if ref:  # a Groot2 user's {key}: the project's key it spells (fv_left__slip) or holds (/fv/left.slip)
+            try:
+                key = ref.group(1) if ref.group(1).startswith("/") else key_of_identifier(ref.group(1), self.keys)
+            except PortError as exc:
+                self.refuse(x, f"key: {exc}")
+        out = {"condition": _name(x), "key": key, "op": x.attrs.get("op")}
+        if x.attrs.get("value", NOT_GIVEN) != NOT_GIVEN:
             try:
                 out["value"] = json.loads(x.attrs["value"])
             except json.JSONDecodeError:
@@ -236,7 +307,8 @@ class _Reader:
         """A node whose tag is a skill's name: the skill, its ports as params (model files rebased)."""
         cls = SKILLS[x.tag]
         self.own_attrs(x, {*cls.PARAMS, "_while"})
-        params = {k: self.port(x, k, cls.PARAMS[k].type) for k in x.attrs if k in cls.PARAMS}
+        params = {k: self.port(x, k, cls.PARAMS[k].type) for k, v in x.attrs.items() if k in cls.PARAMS
+                  and not (v == NOT_GIVEN and not cls.PARAMS[k].required and cls.PARAMS[k].default is None)}
         if issubclass(cls, UsesModel) and isinstance(params.get("model"), str) and not params["model"].startswith("$"):
             params["model"] = rebase(params["model"], Path(self.file).parent, self.out_dir)
         out: dict[str, Any] = {"skill": x.tag}
@@ -255,9 +327,11 @@ class _Reader:
             return None
         if x.attrs.get("_autoremap", "false") != "false":
             self.refuse(x, "_autoremap has no equivalent", "pass each param as a port")
-        types = self.subtree_types[ref]
+        types, defaults = self.subtree_types[ref], self.subtree_defaults.get(ref, {})
+        implied = set(x.attrs.get(DEFAULTS_ATTR, "").split(";"))  # written only for BT.CPP: left out again
         params = {k: self.port(x, k, types.get(k, "str")) for k in x.attrs
-                  if k not in ("ID", "name", "_autoremap", "_while") and k not in LAYOUT_ATTRS}
+                  if k not in ("ID", "name", "_autoremap", "_while", DEFAULTS_ATTR) and k not in LAYOUT_ATTRS
+                  and not (k in implied and k in defaults and x.attrs[k] == defaults[k])}
         out: dict[str, Any] = {"subtree": ref}
         if x.attrs.get("name", ref) != ref:
             out["name"] = x.attrs["name"]
@@ -296,58 +370,6 @@ def _rename(node: dict, name: str) -> None:
         node[_kind_key(node)] = name
 
 
-def _metadata(root: XmlNode, file: str) -> dict:
-    """The `<?fvtree {json}?>` the exporter writes (empty for files from elsewhere)."""
-    for target, data in root.instructions:
-        if target == PI_TARGET:
-            try:
-                meta = json.loads(data)
-            except json.JSONDecodeError as exc:
-                raise TreeErrors([TreeError(f"<?fvtree?> is not JSON: {exc.msg}", file, root.line)]) from None
-            if not isinstance(meta, dict):
-                raise TreeErrors([TreeError("<?fvtree?> must hold a JSON object", file, root.line)])
-            return meta
-    return {}
-
-
-OUR_TYPES = {bt: ours for ours, bt in PORT_TYPES.items()}
-INT_PORTS = {(tag, attr) for tag, (_, attr, _) in COUNTED.items()}
-
-
-def _port_types(x: XmlNode, out: dict[str, str]) -> dict[str, str]:
-    """The type of each `{port}` of a subtree body, from the skill param or decorator field it feeds."""
-    for attr, text in x.attrs.items():
-        ref = PORT_REF.match(text)
-        if ref and x.tag in SKILLS and attr in SKILLS[x.tag].PARAMS:
-            out.setdefault(ref.group(1), SKILLS[x.tag].PARAMS[attr].type)
-        elif ref and (x.tag, attr) in INT_PORTS:
-            out.setdefault(ref.group(1), "int")
-    for child in x.children:
-        _port_types(child, out)
-    return out
-
-
-def _groot_subtree_params(model: XmlNode | None, trees: dict[str, XmlNode], file: str) -> dict[str, dict]:
-    """Subtree ports Groot2 declares in `<TreeNodesModel><SubTree ID=...>`, typed by their `type`
-    or, when they have none, by what each feeds in the subtree's body (a string when it feeds
-    nothing typed)."""
-    out: dict[str, dict] = {}
-    for node in model.children if model is not None else []:
-        if node.tag != "SubTree" or node.attrs.get("ID") not in trees:
-            continue
-        types = _port_types(trees[node.attrs["ID"]], {})
-        params = out[node.attrs["ID"]] = {}
-        for port in (p for p in node.children if p.tag == "input_port" and "name" in p.attrs):
-            declared = OUR_TYPES.get(port.attrs.get("type", ""))
-            decl = params[port.attrs["name"]] = {"type": declared or types.get(port.attrs["name"], "str")}
-            if "default" in port.attrs:
-                try:
-                    decl["default"] = from_port(port.attrs["default"], decl["type"])
-                except PortError as exc:
-                    raise TreeErrors([TreeError(f"default: {exc}", file, port.line, f"<SubTree ID={node.attrs['ID']!r}>")])
-    return out
-
-
 def import_xml(path: str | Path, out: str | Path) -> str:
     """The YAML text of a BT.CPP v4 XML file, to be written at `out` (paths made relative to it),
     validated; TreeErrors listing every XML node without an equivalent, or what validation found."""
@@ -356,7 +378,7 @@ def import_xml(path: str | Path, out: str | Path) -> str:
     if root.tag != "root" or root.attrs.get("BTCPP_format") != "4":
         raise TreeErrors([TreeError("not BehaviorTree.CPP v4 XML: expected <root BTCPP_format=\"4\">", file,
                                     root.line, hint="open and save a v3 file in Groot2 to convert it")])
-    meta = _metadata(root, file)
+    meta = metadata(root, file)
     trees = {t.attrs.get("ID", ""): t for t in root.children if t.tag == "BehaviorTree"}
     model = next((t for t in root.children if t.tag == "TreeNodesModel"), None)
     errors = [TreeError("<include> is not followed: merge the included trees into this file", file, t.line,
@@ -366,16 +388,21 @@ def import_xml(path: str | Path, out: str | Path) -> str:
         errors.append(TreeError(f"no main tree: main_tree_to_execute is {main!r}", file, root.line,
                                 hint=f"trees in this file: {', '.join(trees) or 'none'}"))
         raise TreeErrors(errors)
-    ours, groot = meta.get("subtrees") or {}, _groot_subtree_params(model, trees, file)
+    ours, groot = meta.get("subtrees") or {}, groot_subtree_params(model, trees, file, INT_PORTS)
+    main_defaults = default_ports(groot.get(main, {}))
     subtrees = {name: ours[name].get("params", {}) if name in ours else groot.get(name, {})
                 for name in trees if name != main}
     out_dir = Path(out).parent
-    reader = _Reader(file, out_dir, {n: {p: d.get("type", "str") for p, d in ps.items()} for n, ps in subtrees.items()})
+    reader = _Reader(file, out_dir, {n: {p: d.get("type", "str") for p, d in ps.items()} for n, ps in subtrees.items()},
+                     {n: default_ports(ps) for n, ps in subtrees.items()})
     reader.errors = errors
 
-    def body(tree: XmlNode) -> dict | None:
+    def body(tree: XmlNode, scope: Scope) -> dict | None:
+        reader.scope = scope
         if len(tree.children) != 1:
             reader.refuse(tree, f"a <BehaviorTree> holds one root node, got {len(tree.children)}")
+            for child in tree.children:
+                reader.node(child)
             return None
         return reader.node(tree.children[0])
 
@@ -386,14 +413,26 @@ def import_xml(path: str | Path, out: str | Path) -> str:
     if "design" in meta:
         doc["design"] = rebase(meta["design"], Path(file).parent, out_dir)
     if subtrees:
-        doc["subtrees"] = {name: {**({"params": params} if params else {}), "root": body(trees[name])}
+        doc["subtrees"] = {name: {**({"params": params} if params else {}), "root": body(trees[name], Scope(set(params), subtree=True))}
                            for name, params in subtrees.items()}
-    doc["root"] = body(trees[main])
+    doc["root"] = body(trees[main], Scope(defaults=main_defaults))
     if reader.errors:
-        raise TreeErrors(reader.errors)
+        raise TreeErrors(sorted(reader.errors, key=lambda e: e.line or 0))
     text = yaml.safe_dump(_plain(doc), sort_keys=False, default_flow_style=None, width=110)
-    load_tree(text=text, name=str(out))  # the result validates, or says why not
+    try:
+        load_tree(text=text, name=str(out))  # the result validates, or says why not
+    except TreeErrors as exc:  # said of the YAML we made: said again of the XML lines it came from
+        raise relocate(exc, str(out), file, node_lines(doc, reader.lines)) from None
     return text
+
+
+def _literal_default(text: str) -> Any:
+    """A declared port default used as a script's value: a number or true/false, else the string."""
+    try:
+        value = literal(text)
+    except PortError:
+        return text
+    return text if isinstance(value, str) and value.startswith("$") else value
 
 
 def _plain(value: Any) -> Any:

@@ -135,6 +135,13 @@ def read_condition_script(code: str, known_keys: set[str]) -> dict:
     if not m:
         raise PortError(f"only comparisons '@key OP value' have an equivalent, got {code!r}")
     name, op_text, right = m.groups()
+    op = next(k for k, v in SCRIPT_OPS.items() if v == op_text)
+    return {"key": key_of_identifier(name, known_keys), "op": op, "value": literal(right)}
+
+
+def key_of_identifier(name: str, known_keys: set[str]) -> str:
+    """`/fv/left.slip` from the script identifier `fv_left__slip` (see `script_identifier`), looked
+    up among `known_keys`; PortError if it spells none of them, or several."""
     base, *parts = name.split("__")
     bases = [k for k in known_keys if k.strip("/").replace("/", "_") == base]
     if len(bases) != 1:
@@ -142,5 +149,4 @@ def read_condition_script(code: str, known_keys: set[str]) -> dict:
     key = bases[0]
     for part in parts:
         key += f"[{part}]" if part.isdigit() else f"[-{part[1:]}]" if re.match(r"^m\d+$", part) else f".{part}"
-    op = next(k for k, v in SCRIPT_OPS.items() if v == op_text)
-    return {"key": key, "op": op, "value": literal(right)}
+    return key

@@ -2,9 +2,11 @@
 
 The exporter reads the tree as written, not as expanded: each subtree becomes a `<BehaviorTree>`
 whose `$param`s are port references `{param}`, and each instance a `<SubTree>` with its params as
-ports. What BT.CPP's XML cannot hold (the cell settings, the design model, the subtrees' typed
-param declarations) travels in an `<?fvtree {json}?>` processing instruction that BT.CPP and
-XSD validation skip and the importer reads back.
+ports, every param the instance leaves to its default written out too (BT.CPP has no other place
+for it that its XSD allows), named in the instance's `_fvtree_defaults` attribute so that the
+importer leaves them out again. What BT.CPP's XML cannot hold (the cell settings, the design
+model, the subtrees' typed param declarations) travels in an `<!-- fvtree {json} -->` comment,
+the first thing inside `<root>`, which BT.CPP (tinyxml2), Groot2 and XSD validation skip.
 """
 
 from __future__ import annotations
@@ -25,7 +27,8 @@ from behaviours.skill_kit.model_files import UsesModel
 from behaviours.skill_kit.registry import SKILLS
 from fvfiles.yaml_source import Located, load_file
 
-PI_TARGET = "fvtree"
+META_TAG = "fvtree"  # the metadata comment is `<!-- fvtree {json} -->`
+DEFAULTS_ATTR = "_fvtree_defaults"  # SubTree ports written only because the param has a default
 MEMORY_TAGS = {("sequence", True): "Sequence", ("sequence", False): "ReactiveSequence",
                ("selector", True): "Fallback", ("selector", False): "ReactiveFallback"}
 # (policy, synchronise) of the parallels BT.CPP's Parallel spells: -> (success_count, failure_count)
@@ -37,8 +40,8 @@ class _Writer:
     """Turns raw (validated) YAML nodes into BT.CPP elements, raising a located TreeError for
     what has no spelling."""
 
-    def __init__(self, file: str, out_dir: Path):
-        self.file, self.out_dir = file, out_dir
+    def __init__(self, file: str, out_dir: Path, subtrees: dict[str, dict[str, Param]]):
+        self.file, self.out_dir, self.subtrees = file, out_dir, subtrees
 
     def refuse(self, node: Located, path: str, message: str, hint: str | None = None) -> TreeError:
         return TreeError(f"cannot export: {message}", getattr(node, "file", self.file), getattr(node, "line", None),
@@ -124,6 +127,9 @@ class _Writer:
 
     def _for_each_element(self, node, path, name):
         element = self._element("ForEachElement", name)
+        if node.get("elements") == []:
+            raise self.refuse(node, path, "'elements: []': an empty port means elements left out (every element)",
+                              "leave 'elements' out, or drop the node: it would build nothing")
         if "elements" in node:
             element.set("elements", ";".join(node["elements"]))
         return element
@@ -148,7 +154,13 @@ class _Writer:
         return self._element(node["skill"], name, **ports)
 
     def _subtree(self, node, path, name):
-        return ET.Element("SubTree", {"ID": node["subtree"], "name": name, **self._params(node, path)})
+        ports = self._params(node, path)
+        defaults = {p: self.port(node, path, d.default, f"default of {p!r}")
+                    for p, d in self.subtrees[node["subtree"]].items() if p not in ports and not d.required}
+        element = ET.Element("SubTree", {"ID": node["subtree"], "name": name, **ports, **defaults})
+        if defaults:
+            element.set(DEFAULTS_ATTR, ";".join(defaults))
+        return element
 
 
 def _param_decl(p: Param) -> dict:
@@ -160,6 +172,11 @@ def _param_decl(p: Param) -> dict:
     if p.doc:
         out["doc"] = p.doc
     return out
+
+
+def comment_safe(text: str) -> str:
+    """JSON text that can stand in an XML comment: no `--` (JSON reads `\\u002d` back as `-`)."""
+    return text.replace("--", "-\\u002d")
 
 
 def rebase(path: str, from_dir: Path, to_dir: Path) -> str:
@@ -176,7 +193,7 @@ def export_tree(path: str | Path, out_dir: str | Path = ".", subtree_models: boo
     doc = load_tree(path)
     raw = load_file(path)
     out_dir = Path(out_dir)
-    writer = _Writer(str(path), out_dir)
+    writer = _Writer(str(path), out_dir, {name: sub.params for name, sub in doc.subtrees.items()})
     main_id = doc.name
     if main_id in doc.subtrees:
         raise TreeErrors([TreeError(f"cannot export: the tree's name {main_id!r} is also a subtree's",
@@ -187,7 +204,7 @@ def export_tree(path: str | Path, out_dir: str | Path = ".", subtree_models: boo
     if "design" in raw:
         meta["design"] = rebase(raw["design"], Path(path).parent, out_dir)
     root = ET.Element("root", {"BTCPP_format": "4", "main_tree_to_execute": main_id})
-    root.append(ET.ProcessingInstruction(PI_TARGET, json.dumps(meta).replace("?>", "?\\u003e")))
+    root.append(ET.Comment(f" {META_TAG} {comment_safe(json.dumps(meta))} "))
     try:
         trees = [(main_id, writer.node(raw["root"], ""))]
         trees += [(name, writer.node(sub.root, "")) for name, sub in doc.subtrees.items()]

@@ -1,7 +1,9 @@
 """JSON schemas of the MCAP export's messages: Foxglove's well-known ones (`foxglove.Log`,
-`foxglove.CompressedImage`, `foxglove.PoseInFrame`, `foxglove.SceneUpdate`, with the fields of
-Foxglove's schema set that the export fills, so its Log, Image and 3-D panels show them) and
-fvtree's own for what has no Foxglove type."""
+`foxglove.CompressedImage`, `foxglove.PoseInFrame`, `foxglove.SceneUpdate`: the titles, properties,
+types and `required` lists of Foxglove's official JSON schemas, so its Log, Image and 3-D panels show
+them; only the field descriptions are left out, and the SceneEntity primitives and deletions the
+export leaves empty are plain arrays) and fvtree's own for what has no Foxglove type.
+tests/test_export_mcap.py checks them against the official schemas of the `@foxglove/schemas` package."""
 
 from __future__ import annotations
 
@@ -16,11 +18,9 @@ LOG_LEVELS = ("UNKNOWN", "DEBUG", "INFO", "WARNING", "ERROR", "FATAL")  # foxglo
 
 
 def _object(title: str, description: str, **properties: Any) -> dict:
-    """An object schema; fvtree's own require every field (Foxglove's require none)."""
-    schema = {"title": title, "description": description, "type": "object", "properties": properties}
-    if title.startswith("fvtree."):
-        schema["required"] = list(properties)
-    return schema
+    """An object schema requiring every field (as Foxglove's official schemas do)."""
+    return {"title": title, "description": description, "type": "object", "properties": properties,
+            "required": list(properties)}
 
 
 def _xyz(title: str, description: str, names: str = "xyz") -> dict:
@@ -28,6 +28,9 @@ def _xyz(title: str, description: str, names: str = "xyz") -> dict:
 
 
 ARRAY = {"type": "array"}  # a SceneEntity's primitives the export leaves empty
+DURATION = {"type": "object", "title": "duration", "properties": {"sec": INTEGER,
+                                                                  "nsec": {"type": "integer", "minimum": 0,
+                                                                           "maximum": 999999999}}}
 TICK = {"type": "integer", "minimum": 0, "description": "tick of the run (the cell clock's period apart)"}
 VECTOR3 = _xyz("foxglove.Vector3", "a vector in 3-D space")
 POSE = _object("foxglove.Pose", "A position and orientation for an object or reference frame in 3D space",
@@ -54,9 +57,9 @@ SCHEMAS: dict[str, dict] = {
         "foxglove.SceneUpdate", "An update to the entities displayed in a 3D scene", deletions=ARRAY,
         entities={"type": "array", "items": _object(
             "foxglove.SceneEntity", "A visual element in a 3D scene", timestamp=TIME, frame_id=STRING, id=STRING,
-            lifetime=TIME, frame_locked=BOOLEAN, metadata=ARRAY, cubes={"type": "array", "items": CUBE},
-            texts={"type": "array", "items": TEXT},
-            **{kind: ARRAY for kind in ("arrows", "spheres", "cylinders", "lines", "triangles", "models")})}),
+            lifetime=DURATION, frame_locked=BOOLEAN, metadata=ARRAY, arrows=ARRAY,
+            cubes={"type": "array", "items": CUBE}, spheres=ARRAY, cylinders=ARRAY, lines=ARRAY, triangles=ARRAY,
+            texts={"type": "array", "items": TEXT}, models=ARRAY)}),
     "fvtree.NodeStatus": _object(
         "fvtree.NodeStatus", "a node of the behaviour tree changed status; `tree`: every node's status after it",
         timestamp=TIME, tick=TICK, node=STRING, status=STRING, feedback=STRING,
