@@ -80,8 +80,7 @@ class Margins:
         self._last_tick = now
 
     def saw(self, what: str, age: float) -> None:
-        if age > self.worst[what]:
-            self.worst[what] = age
+        self.worst[what] = max(self.worst[what], age)
 
     def report(self) -> dict[str, dict[str, float]]:
         """{measure: {"worst": s, "limit": s}}, rounded to the millisecond."""
