@@ -267,3 +267,13 @@ def test_a_temp_cache_dir_someone_else_made_is_not_used(monkeypatch, tmp_path):
     assert user_cache.use_user_cache_for_numba() is None
     os.chown(planted.parent, 0, 0)
     assert user_cache.use_user_cache_for_numba() == str(planted)
+
+
+def test_a_recording_holding_2_gib_is_refused_before_training(tmp_path, capsys):
+    """`fvtree train` reads a recording (.npz) the same way: sized before anything is inflated."""
+    data = tmp_path / "data.npz"
+    zeros_npz(data, 2 << 30, name="features.npy")
+    cpu = time.process_time()
+    code, text = fvtree(capsys, "train", "force", str(data), "--out", str(tmp_path / "m.npz"))
+    assert code == 2 and f"{data}: not loaded: its arrays take 2048 MiB uncompressed, at most 1024 MiB" in text
+    assert time.process_time() - cpu < 2.0  # loading the learning modules included
