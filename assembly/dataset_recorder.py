@@ -14,6 +14,7 @@ from py_trees.blackboard import Blackboard
 
 from assembly.run.options import RunOptions
 from assembly.run.session import Run, world_of
+from assembly.run.storage import CANNOT_WRITE, StorageError
 from behaviours.skill_kit import keys
 from drivers.cell import Cell
 from perception.learning.dataset import Dataset
@@ -63,7 +64,14 @@ def record_run(tree_path: str | Path, cell: str = "sim", seed: int = 0, max_time
 
 def record(tree_path: str | Path, out: str | Path, cell: str = "sim", seed: int = 0, runs: int = 1,
            perception: str | None = None) -> Path:
-    """Record `runs` runs (seeds seed, seed+1, ...) of a tree into one file at `out`."""
+    """Record `runs` runs (seeds seed, seed+1, ...) of a tree into one file at `out` (a located
+    error, exit 2, when it cannot be written)."""
     parts = [record_run(tree_path, cell, seed + i, perception=perception) for i in range(runs)]
     header = {**parts[0].header, "source": {**parts[0].header["source"], "seeds": list(range(seed, seed + runs))}}
-    return Dataset.concatenate(parts, header).save(out)
+    try:
+        return Dataset.concatenate(parts, header).save(out)
+    except OSError as exc:  # a full disk or the file-size limit: a located error, and no torn file left
+        Path(out).unlink(missing_ok=True)
+        if exc.errno not in CANNOT_WRITE:
+            raise
+        raise StorageError.of(exc, out, "cannot write the dataset") from None

@@ -1,6 +1,10 @@
 """One py_trees behaviour per tactile skill, registered by its YAML name. Skills of other installed
 packages register through entry points (group `fvtree.skills`, loaded by `assembly.language.plugins`)."""
 
+from fvfiles.user_cache import use_user_cache_for_numba
+
+use_user_cache_for_numba()  # before a module of this package imports numba (see fvfiles/user_cache.py)
+
 from behaviours import (  # noqa: F401  (importing registers the skills)
     approach_plate,
     arm_rot,

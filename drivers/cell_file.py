@@ -8,7 +8,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from fvfiles.errors import FvtreeError, did_you_mean
+from fvfiles.errors import FvtreeError, did_you_mean, field_name
 from fvfiles.yaml_source import Located, SourceError, load_file
 
 CELLS_DIR = Path(__file__).parent / "cells"
@@ -71,8 +71,17 @@ def check_known(path: Path, mapping: dict, known: Iterable[str], where: str = ""
     known = set(known)
     unknown = sorted(set(mapping) - known, key=str)
     if unknown:
-        raise CellFileError(path, f"{where}{unknown[0]}", "unknown field",
-                            did_you_mean(unknown[0], known) or f"known: {', '.join(sorted(known))}")
+        key = unknown[0]
+        if field_name(key).startswith("'"):
+            raise CellFileError(path, f"{where}{key}", "unknown field",
+                                did_you_mean(key, known) or f"known: {', '.join(sorted(known))}")
+        raise CellFileError(path, where.rstrip("."), f"unknown field {field_name(key)}",  # its line, not its text
+                            f"known: {', '.join(sorted(known))}", line=_line_of_key(mapping, key))
+
+
+def _line_of_key(mapping: dict, key: object) -> int | None:
+    """The line of `key` in a mapping read from a file, when it knows it."""
+    return mapping.line_of(key) if isinstance(mapping, Located) else None
 
 
 def section(path: Path, data: dict, key: str, required: bool = False, known: Iterable[str] | None = None,

@@ -44,11 +44,26 @@ def atomic_write_json(path: Path, data: Any) -> None:
 
 
 def append_json_line(path: Path, record: dict) -> None:
-    """Append one JSON line and force it to disk (event logs survive a crash)."""
-    with open(path, "a") as f:
-        f.write(json.dumps(record, default=to_jsonable) + "\n")
-        f.flush()
-        os.fsync(f.fileno())
+    """Append one JSON line and force it to disk (event logs survive a crash). A write that fails
+    part way (a full disk, the file-size limit) is cut back off, so that a later line never
+    follows a torn one."""
+    data = (json.dumps(record, default=to_jsonable) + "\n").encode()
+    fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_CLOEXEC, 0o644)
+    try:
+        size = os.fstat(fd).st_size
+        try:
+            done = 0
+            while done < len(data):
+                done += os.write(fd, data[done:])
+            os.fsync(fd)
+        except OSError:
+            try:
+                os.ftruncate(fd, size)
+            except OSError:
+                pass
+            raise
+    finally:
+        os.close(fd)
 
 
 def append_json_line_or_stderr(path: Path, record: dict) -> bool:

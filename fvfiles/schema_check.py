@@ -11,7 +11,7 @@ import math
 from collections.abc import Iterator
 from typing import Any
 
-from fvfiles.errors import did_you_mean
+from fvfiles.errors import did_you_mean, did_you_mean_field, field_name
 
 _JSON_TYPES = {"string": str, "array": list, "object": dict, "boolean": bool, "null": type(None)}
 
@@ -85,7 +85,8 @@ def object_problems(obj: dict, schema: dict, what: str) -> Iterator[tuple[str, s
     known = schema["properties"]
     for key in obj:
         if key not in known:
-            yield f"{what}: unknown field {key!r}", key, did_you_mean(key, known) or f"known: {', '.join(known)}"
+            yield (f"{what}: unknown field {field_name(key)}", key,
+                   did_you_mean_field(key, known) or f"known: {', '.join(known)}")
     for key in schema.get("required", ()):
         if key not in obj:
             yield f"{what}: missing field {key!r}", None, None

@@ -1,6 +1,6 @@
 """The fail-safe tick loop: an exception anywhere in a tick halts the tree, stops arm and gripper,
 logs a `crashed` event and writes the summary; SIGTERM halts like Ctrl-C; a run directory that
-cannot be written halts the run with the placement kept in the event log; kill -9 at any moment
+cannot be written stops the run (FAULT) with the placement kept in the event log; kill -9 at any moment
 never makes a resumed run place an element twice."""
 
 from __future__ import annotations
@@ -165,12 +165,12 @@ def test_a_failed_as_built_write_halts_the_run_with_the_placement_in_the_log(tmp
 
     monkeypatch.setattr(bridge_module, "atomic_write_json", read_only)
     summary = run_tree(ASSEMBLY, RunOptions(runs_dir=tmp_path, quiet=True, plots=False))
-    assert summary.status == "CRASHED" and "cannot write the as-built model" in summary.message
+    assert summary.status == "FAULT" and "cannot write the as-built model" in summary.message
     assert "the placing record of E1 is in" in summary.message and summary.where.endswith("/elements")
     run_dir = Path(summary.run_dir)
     events = lines(run_dir / "events.jsonl")
     assert next(e["event"] for e in events if e.get("element") == "E1") == "placing"
-    assert events[-2]["event"] == "crashed"
+    assert events[-2]["event"] == "halted" and events[-2]["status"] == "FAULT"
 
 
 def test_when_the_event_log_fails_too_the_placement_goes_to_stderr(tmp_path, monkeypatch, capsys):
@@ -189,7 +189,7 @@ def test_when_the_event_log_fails_too_the_placement_goes_to_stderr(tmp_path, mon
     monkeypatch.setattr(bridge_module.DesignBridge, "record_placing", record_placing)
     summary = run_tree(ASSEMBLY, RunOptions(runs_dir=tmp_path, quiet=True, plots=False))
     err = capsys.readouterr().err
-    assert summary.status == "CRASHED" and "the placing record of E1 is in stderr" in summary.message
+    assert summary.status == "FAULT" and "the placing record of E1 is in stderr" in summary.message
     assert '"event": "placing", "element": "E1"' in err
 
 

@@ -440,7 +440,9 @@ def prop_heavy_plate(tmp_path, regrasps: int):
     (tmp_path / "heavy.yaml").write_text(text)
     design = DesignModel.load(TREES / "design" / "three_bays.json")
     cell = load_cell("sim", 30, "assembly", design.scene_args())
-    h = TreeHarness.from_file(tmp_path / "heavy.yaml", cell=cell, design=design)
+    with pytest.MonkeyPatch.context() as patch:  # the tree in tmp_path includes the project's subtree
+        patch.setenv("FVTREE_INCLUDE_PATH", str(TREES / "subtrees"))
+        h = TreeHarness.from_file(tmp_path / "heavy.yaml", cell=cell, design=design)
     return h, cell.world, h.run_until_done(6000)
 
 

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from assembly.design.model import DesignModel
+from fvfiles.errors import RecordNotWritten
 from fvfiles.json_files import append_json_line_or_stderr, atomic_write_json, read_json_lines
 
 
@@ -33,6 +34,7 @@ class DesignBridge:
         self.events_path = Path(events_path)
         self.links = list(links)
         self.dispatcher = dispatcher  # hands out the next element when several cells share a design
+        self.unlogged = 0  # events that went to stderr: the event log could not be written
         atomic_write_json(self.asbuilt_path, model.to_data())
 
     def next_element(self, remaining: list[str]) -> str | None:
@@ -47,6 +49,7 @@ class DesignBridge:
         it reached the log."""
         record = {"time": time.time(), "event": kind, **data}
         logged = append_json_line_or_stderr(self.events_path, record)
+        self.unlogged += not logged
         self.notify(record)
         return logged
 
@@ -106,8 +109,8 @@ class DesignBridge:
             atomic_write_json(self.asbuilt_path, self.model.to_data())
         except OSError as exc:
             kept = self.events_path if logged else "stderr"
-            raise RuntimeError(f"cannot write the as-built model {self.asbuilt_path} ({exc.strerror or exc}); "
-                               f"the {kind} record of {eid} is in {kept}") from exc
+            raise RecordNotWritten(f"cannot write the as-built model ({exc.strerror or exc}); "
+                                   f"the {kind} record of {eid} is in {kept}", str(self.asbuilt_path)) from exc
 
     def _apply(self, record: dict) -> None:
         node = self.model.graph.nodes[record["element"]]

@@ -3,6 +3,7 @@ validated before anything runs, into a `TreeDocument`."""
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -15,7 +16,7 @@ from assembly.language.kinds import NODE_KINDS
 from assembly.language.plugins import load_plugins
 from assembly.language.validator import NodeSpec, Scope, SubtreeDef, Validator, subtree_params
 from behaviours.skill_kit.keys import PERCEPTION_KEYS
-from fvfiles.errors import FvtreeError, did_you_mean
+from fvfiles.errors import FvtreeError, did_you_mean, did_you_mean_field, field_name
 from fvfiles.schema_check import schema_problem
 from fvfiles.yaml_source import Located, LocatedList, load_file, load_text
 
@@ -68,8 +69,8 @@ class _FieldCheck:
             if key in table:
                 self.value(value, table[key], f"{where}.{key}" if where else str(key), mapping.line_of(key))
             else:
-                self.errors.append(TreeError(f"unknown {noun} {key!r}", self.file, mapping.line_of(key), where or None,
-                                             did_you_mean(key, table) or f"known: {', '.join(table)}"))
+                self.errors.append(TreeError(f"unknown {noun} {field_name(key)}", self.file, mapping.line_of(key),
+                                             where or None, did_you_mean_field(key, table) or f"known: {', '.join(table)}"))
         for key in required(table, self.tree_file):
             if key not in mapping:
                 self.errors.append(TreeError(f"missing {noun} {key!r}", self.file, mapping.line, where or None,
@@ -96,15 +97,32 @@ def _fits(mapping: Located, key: str) -> bool:
     return key in mapping and schema_problem(mapping[key], TOP_FIELDS[key].schema) is None
 
 
+INCLUDE_PATH = "FVTREE_INCLUDE_PATH"  # more folders includes may come from (os.pathsep-separated)
+
+
+def include_roots(tree_file: str) -> list[Path]:
+    """The folders a tree's includes may come from: the tree file's own (with its subfolders) and
+    each folder FVTREE_INCLUDE_PATH names (`fvtree --allow-include DIR` adds to it). A file
+    elsewhere (`/etc/shadow`, `../../x.yaml`, a symbolic link leading out) is never opened."""
+    extra = [Path(p).expanduser().resolve() for p in os.environ.get(INCLUDE_PATH, "").split(os.pathsep) if p]
+    return [Path(tree_file).resolve().parent, *extra]
+
+
 def _collect_subtrees(doc: Located, file: str, out: dict[str, SubtreeDef], errors: list[TreeError],
-                      seen_files: tuple[str, ...]) -> None:
+                      seen_files: tuple[str, ...], roots: list[Path]) -> None:
     """Subtrees of this file and, recursively, of its includes (their fields are checked with the
-    top level: here the include cycles, the subtrees defined twice and the param declarations)."""
+    top level: here the include cycles, the subtrees defined twice, the param declarations and
+    that each include lies under one of `roots`)."""
     base = Path(file).parent
     includes: LocatedList = (doc["include"] or LocatedList()) if _fits(doc, "include") else LocatedList()
     for i, rel in enumerate(includes):
         line = includes.item_lines[i]
         target = str((base / rel).resolve())
+        if not any(Path(target).is_relative_to(root) for root in roots):
+            errors.append(TreeError(f"include {rel!r}: outside the tree's folder {roots[0]}, so it is not read",
+                                    file, line, hint="allow its folder with `fvtree --allow-include DIR ...` "
+                                                     f"or {INCLUDE_PATH}=DIR"))
+            continue
         if target in seen_files:
             errors.append(TreeError(f"include cycle: {' -> '.join(seen_files + (target,))}", file, line))
             continue
@@ -115,7 +133,7 @@ def _collect_subtrees(doc: Located, file: str, out: dict[str, SubtreeDef], error
                                     exc.line or line))
             continue
         if _top_level(sub, str(base / rel), errors, tree_file=False):
-            _collect_subtrees(sub, str(base / rel), out, errors, seen_files + (target,))
+            _collect_subtrees(sub, str(base / rel), out, errors, seen_files + (target,), roots)
     subtrees: Located = (doc["subtrees"] or Located()) if _fits(doc, "subtrees") else Located()
     for name, body in subtrees.items():
         if not isinstance(body, Located) or "root" not in body:
@@ -180,7 +198,7 @@ def load_tree(path: str | Path | None = None, text: str | None = None, name: str
     tick_hz, scene = _cell_settings(doc, file, errors)
     design = _design(doc, file, errors)
     subtrees: dict[str, SubtreeDef] = {}
-    _collect_subtrees(doc, file, subtrees, errors, (str(Path(file).resolve()),))
+    _collect_subtrees(doc, file, subtrees, errors, (str(Path(file).resolve()),), include_roots(file))
     root = None
     if "root" in doc:
         validator = Validator(NODE_KINDS, subtrees, has_design="design" in doc,

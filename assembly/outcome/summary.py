@@ -46,6 +46,7 @@ class Summary:
     plot: str | None = None  # the load-profile chart, when one was drawn
     traceback: str = ""  # CRASHED: where the exception came from
     nothing_to_do: bool = False  # a resumed run whose elements were all placed already
+    lost: list[str] = field(default_factory=list)  # what disk trouble kept from being written (file: from when, why)
     # the supervisor's worst tick gap, arm data age and perception age beside their limits (s)
     margins: dict[str, dict[str, float]] = field(default_factory=dict)
 
@@ -63,7 +64,7 @@ class Summary:
         for key in ("truth", "tree_status", "traceback"):
             if not data[key]:
                 del data[key]
-        for key in ("substitutions", "nothing_to_do", "margins"):
+        for key in ("substitutions", "nothing_to_do", "lost", "margins"):
             if not data[key]:
                 del data[key]
         return data
@@ -136,6 +137,7 @@ def format_summary(summary: Summary) -> str:
         lines.append(f"  {name}: {value:.4g}" if isinstance(value, float) else f"  {name}: {value}")
     if truth and truth.tolerances:
         lines.append("  judged by the scene's truth with " + ", ".join(f"{k} {v:g}" for k, v in truth.tolerances.items()))
+    lines += [f"  lost: {what}" for what in summary.lost]
     lines.append(f"  sim time {summary.sim_time_s:.1f} s, wall time {summary.wall_time_s:.2f} s, "
                  f"real-time factor {summary.real_time_factor:.0f}x, {summary.ticks} ticks")
     return "\n".join(lines)

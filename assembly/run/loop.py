@@ -8,7 +8,9 @@ line are updated (post-tick handlers); the cell advances one period of its clock
 or a sleep to the next period on a real cell). After the tick the stop policy may halt the run.
 
 The loop is fail-safe: an exception anywhere in a tick (a skill, a handler, the cell) halts the
-tree, stops arm and gripper and ends the run with status CRASHED, naming the node that raised.
+tree, stops arm and gripper and ends the run with status CRASHED, naming the node that raised;
+an as-built record that cannot be written (`RecordNotWritten`: a full disk) ends it with status
+FAULT the same way. The transition log and the recording degrade instead (`RunStorage`).
 """
 
 from __future__ import annotations
@@ -29,11 +31,13 @@ from assembly.run.load_profiles import LoadProfiles
 from assembly.run.perception_stage import PerceptionStage
 from assembly.run.progress import Progress
 from assembly.run.stop_policy import Stop, StopPolicy
+from assembly.run.storage import RunStorage
 from assembly.run.supervisor import Supervision, Supervisor
 from assembly.run.tip import Tip
 from assembly.run.transitions import TransitionLog
 from drivers.cell import Cell
 from drivers.protocols import PerceptionSource
+from fvfiles.errors import RecordNotWritten
 
 
 class BehaviourTree(py_trees.trees.BehaviourTree):
@@ -82,7 +86,8 @@ class Runner:
                  progress: Callable[[str], None] | None = None,
                  sense: PerceptionSource | None = None,
                  estop_at: float | None = None, max_time: float = 3600.0,
-                 supervision: Supervision | None = None, recorder: Recorder | None = None):
+                 supervision: Supervision | None = None, recorder: Recorder | None = None,
+                 storage: RunStorage | None = None):
         self.tree = tree
         self.cell = cell
         self.bridge = bridge
@@ -94,7 +99,9 @@ class Runner:
         self.perception = PerceptionStage(cell, sense)
         self.supervisor = Supervisor(cell, supervision, tree, self.tip) if supervision else None
         self.load_profiles = LoadProfiles()
-        self.log = TransitionLog(tree, cell.clock, run_dir / "transitions.jsonl") if run_dir else None
+        self.storage = storage or RunStorage(None)
+        self.log = TransitionLog(tree, cell.clock, run_dir / "transitions.jsonl",
+                                 lambda exc, since: self.storage.lost("transitions.jsonl", exc, since)) if run_dir else None
         self.progress = Progress(self.tip, cell.clock, progress) if progress else None
         self.recorder = recorder
         self.behaviour_tree.add_pre_tick_handler(self.stop_policy.before_tick)
@@ -147,6 +154,9 @@ class Runner:
                     self._pace(start)
         except KeyboardInterrupt as interrupt:
             return self._stopped(self.stop_policy.interrupted(interrupt), start)
+        except RecordNotWritten as exc:  # the record of what stands is not kept: stop the cell
+            where = self._raiser(exc) or self.tip.path
+            return self._stopped(Stop("FAULT", f"{exc} (in {where})", where), start)
         except Exception as exc:  # noqa: BLE001 - the fail-safe: whatever raised, the cell stops
             return self._crashed(exc, start)
         finally:

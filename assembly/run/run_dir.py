@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import re
 import time
 from pathlib import Path
@@ -62,8 +63,10 @@ def fingerprint(doc: TreeDocument) -> dict:
 
 
 def write_run_file(run_dir: Path, doc: TreeDocument, **details) -> None:
-    """Record at the start what the run builds (see `fingerprint`) and how (`details`)."""
-    atomic_write_json(run_dir / RUN_FILE, {**fingerprint(doc), "tree_file": str(doc.path), **details})
+    """Record at the start what the run builds (see `fingerprint`), when it started (`started`,
+    Unix time: what `--resume` orders runs by) and how (`details`)."""
+    atomic_write_json(run_dir / RUN_FILE, {**fingerprint(doc), "tree_file": str(doc.path), "started": time.time(),
+                                           **details})
 
 
 def _run_file(run_dir: Path) -> dict | None:
@@ -74,16 +77,32 @@ def _run_file(run_dir: Path) -> dict | None:
     return data if isinstance(data, dict) and (run_dir / ASBUILT_FILE).is_file() else None
 
 
+def _start_order(run: tuple[Path, dict]) -> tuple[float, int, str]:
+    """Sort key of a run by its start: the `started` time its run.json records (a run from before
+    that field: the time run.json was written), then the `-N` suffix `new_run_dir` gave runs
+    started in the same second (numerically: `-10` after `-9`), then the name."""
+    path, data = run
+    started = data.get("started")
+    if isinstance(started, bool) or not isinstance(started, (int, float)) or not math.isfinite(started):
+        try:
+            started = (path / RUN_FILE).stat().st_mtime
+        except OSError:
+            started = 0.0
+    suffix = re.search(r"-(\d{1,3})$", path.name)
+    return float(started), int(suffix.group(1)) if suffix else 0, path.name
+
+
 def find_run(runs_dir: Path, resume: str, doc: TreeDocument) -> Path:
-    """The run directory to resume: `resume` itself, or for "latest" the newest run of exactly
-    this tree under `runs_dir`; checked to be a run of this tree with its files unchanged."""
+    """The run directory to resume: `resume` itself, or for "latest" the run of exactly this tree
+    under `runs_dir` started last (see `_start_order`); checked to be a run of this tree with its files unchanged."""
     if resume != "latest":
         run_dir = Path(resume)
     else:
-        runs = sorted(p for p in runs_dir.glob("*") if p.is_dir() and (_run_file(p) or {}).get("tree") == doc.name)
+        runs = [(p, data) for p in runs_dir.glob("*") if p.is_dir()
+                for data in [_run_file(p)] if data is not None and data.get("tree") == doc.name]
         if not runs:
             raise TreeError(f"no earlier run of {doc.name!r} to resume", str(runs_dir))
-        run_dir = runs[-1]
+        run_dir = max(runs, key=_start_order)[0]
     recorded = _run_file(run_dir)
     if recorded is None:
         raise TreeError(f"not a run directory ({RUN_FILE} and {ASBUILT_FILE} are needed)", str(run_dir))

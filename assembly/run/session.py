@@ -28,22 +28,27 @@ from assembly.errors import TreeError
 from assembly.language.build import BuiltTree, build
 from assembly.language.reader import TreeDocument, load_tree, with_scene
 from assembly.language.substitution import substitute
-from assembly.observe.recorder import RunRecorder, run_recorder
+from assembly.observe.recorder import recording_path, run_recorder
 from assembly.outcome.charts import plot_profiles
 from assembly.outcome.result import RunResult
 from assembly.outcome.summary import SUMMARY_FILE, Summary, format_summary, summarize
-from assembly.outcome.verdict import judge, tolerances_for
+from assembly.outcome.verdict import TASK_FAILED, judge, tolerances_for
+from assembly.run.event_log import Box, cell_box, check_run_records, drop_torn_tail
 from assembly.run.loop import Runner
 from assembly.run.options import MARKS, RunOptions
 from assembly.run.perception_stage import clear_blackboard
 from assembly.run.progress import end_stderr_progress, stderr_progress
+from assembly.run.recording_guard import GuardedRecorder, guarded_recorder
 from assembly.run.run_dir import ASBUILT_FILE, EVENTS_FILE, find_run, new_run_dir, write_run_file
+from assembly.run.run_lock import RunLock
+from assembly.run.storage import RunStorage, storage_errors_located, why
 from assembly.run.supervisor import Supervision
 from assembly.signals import sigterm_raises_terminated
 from drivers.cell import Cell
 from drivers.cell_builders import load_cell
 from drivers.protocols import World
 from fvfiles.errors import FvtreeError
+from fvfiles.json_files import read_json_lines
 
 if TYPE_CHECKING:
     from typing_extensions import Self  # typing.Self from Python 3.11
@@ -75,6 +80,8 @@ class Run:
         self._placed_before: list[str] = []
         self._cell_closed = False
         self._finished = False
+        self._lock: RunLock | None = None  # the run directory's, held from its choice to `close()`
+        self.storage = RunStorage(None)  # what disk trouble cost the run (with a run directory: its reserve)
 
     @property
     def cell(self) -> Cell:
@@ -89,7 +96,7 @@ class Run:
         return self._opened().runner
 
     @property
-    def recorder(self) -> RunRecorder | None:
+    def recorder(self) -> GuardedRecorder | None:
         return self._parts.recorder if self._parts is not None else None
 
     # ---- opening ---------------------------------------------------------------------------
@@ -106,8 +113,12 @@ class Run:
         the tick loop, and set every node up. A cell built here is closed again if a later step
         fails."""
         clear_blackboard()
-        if not self._prepare_run_dir():
-            return self
+        try:
+            if not self._prepare_run_dir():
+                return self
+        except BaseException:
+            self.close()  # frees the run directory's lock, if it was taken
+            raise
         design = self.design
         self._placed_before = [e for e in design.build_order() if design.is_placed(e)] if design else []
         cell = self.given_cell or self._load_cell()
@@ -145,19 +156,23 @@ class Run:
         o, doc = self.options, self.doc
         if o.runs_dir is None:
             return True
-        if o.resume:
-            self.run_dir = find_run(o.runs_dir, o.resume, doc)
-            self._before = _previous_summary(self.run_dir)
-            self.bridge = _resumed_bridge(self.run_dir, doc, dict(o.marks))
-            if self.bridge is None:
-                self.nothing_to_do = Summary.from_json({**self._before, "run_dir": str(self.run_dir),
-                                                        "nothing_to_do": True})
-                return False
-        else:
-            self.run_dir = new_run_dir(o.runs_dir, doc.name)
-            write_run_file(self.run_dir, doc, cell=o.cell, seed=o.seed)
-            if doc.design is not None:
-                self.bridge = DesignBridge(doc.design, self.run_dir / ASBUILT_FILE, self.run_dir / EVENTS_FILE)
+        with storage_errors_located(o.runs_dir):
+            if o.resume:
+                self.run_dir = find_run(o.runs_dir, o.resume, doc)
+                self._lock = RunLock(self.run_dir).acquire()  # before anything is read: no second session
+                self._before = _previous_summary(self.run_dir)
+                self.bridge = _resumed_bridge(self.run_dir, doc, dict(o.marks), cell_box(o.cell))
+                if self.bridge is None:
+                    self.nothing_to_do = Summary.from_json({**self._before, "run_dir": str(self.run_dir),
+                                                            "nothing_to_do": True})
+                    return False
+            else:
+                self.run_dir = new_run_dir(o.runs_dir, doc.name)
+                self._lock = RunLock(self.run_dir).acquire()  # before run.json makes it a run to resume
+                write_run_file(self.run_dir, doc, cell=o.cell, seed=o.seed)
+                if doc.design is not None:
+                    self.bridge = DesignBridge(doc.design, self.run_dir / ASBUILT_FILE, self.run_dir / EVENTS_FILE)
+        self.storage = RunStorage(self.run_dir)
         if self.bridge is not None and o.link is not None:
             from assembly.design.link.mqtt_bridge import attach_options  # compas_eve and paho: only when linked
 
@@ -187,14 +202,17 @@ class Run:
         tree = build(self.doc)
         recorder = None  # the recording and its live view follow the run directory's event log
         if self.run_dir is not None and (o.record or o.live):
-            recorder = run_recorder(tree, cell, self.run_dir, design, o.record, o.live, o.record_images)
+            run_dir = self.run_dir
+            recorder = guarded_recorder(self.storage, recording_path(run_dir) if o.record else None,
+                                        lambda: run_recorder(tree, cell, run_dir, design, o.record, o.live,
+                                                             o.record_images))
         sense, given = None, self.sense
         if given is not None:
             def sense() -> Mapping[str, Any]:
                 return given(cell)
         runner = Runner(tree, cell, self.run_dir, self.bridge, realtime=o.realtime,
                         progress=None if o.quiet else stderr_progress, sense=sense, estop_at=o.estop_at,
-                        max_time=o.max_time, supervision=supervision, recorder=recorder)
+                        max_time=o.max_time, supervision=supervision, recorder=recorder, storage=self.storage)
         if self.bridge is not None:
             self.bridge.event("start", tree=str(self.doc.path), cell=o.cell, seed=o.seed, resume=bool(o.resume))
         return _Parts(cell, tree, recorder, runner)
@@ -234,9 +252,9 @@ class Run:
         summary.substitutions = self.substituted
         if cell.world is not None:
             summary.apply(judge(cell.world, self.tolerances))
+        self._log_end(summary, result)  # first: the event log's end matters more than the files below
         if self.run_dir is not None:
             self._write(summary, result, self.run_dir)
-        self._log_end(summary, result)
         if not o.quiet:
             self._print(summary)
         return summary
@@ -257,14 +275,27 @@ class Run:
 
     # ---- after the last tick -----------------------------------------------------------------
     def _write(self, summary: Summary, result: RunResult, run_dir: Path) -> None:
-        """Chart and summary file; a run directory that cannot be written loses them, not the run."""
-        try:
-            if self.options.plots:
+        """Chart and summary file, with what disk trouble lost (`Summary.lost`); a run directory that
+        cannot be written loses them, not the run (the summary is still printed)."""
+        if self.options.plots:
+            try:
                 png = plot_profiles(result.profiles, self.cell.world, run_dir / "load_profiles.png")
                 summary.plot = str(png) if png else None
+            except OSError as exc:
+                self.storage.lost("load_profiles.png", exc)
+        self.storage.release()  # the run's records are written: the reserve's room is the summary's
+        summary.lost = self._lost()
+        try:
             summary.write(run_dir)
         except OSError as exc:
-            print(f"cannot write the summary to {self.run_dir} ({exc.strerror or exc})", file=sys.stderr)
+            self.storage.lost(SUMMARY_FILE, exc)
+            summary.lost = self._lost()
+            print(f"cannot write the summary to {self.run_dir} ({why(exc)})", file=sys.stderr)
+
+    def _lost(self) -> list[str]:
+        """What disk trouble cost this run: the storage's notes and events that only reached stderr."""
+        unlogged = self.bridge.unlogged if self.bridge is not None else 0
+        return self.storage.notes + ([f"{EVENTS_FILE}: {unlogged} records only on stderr"] if unlogged else [])
 
     def _log_end(self, summary: Summary, result: RunResult) -> None:
         end = {"status": summary.status, "where": result.where, "message": summary.message}
@@ -291,14 +322,20 @@ class Run:
             self._parts.cell.close()
 
     def close(self) -> None:
-        """Close the cell and, for a run left unfinished, the design bridge's links and the recorder."""
-        self.close_cell()
-        if not self._finished:
-            self._finished = True
-            if self.bridge is not None:
-                self.bridge.close()
-            if self.recorder is not None:
-                self.recorder.finish()
+        """Close the cell and, for a run left unfinished, the design bridge's links and the recorder;
+        then free the run directory for another session."""
+        try:
+            self.close_cell()
+            if not self._finished:
+                self._finished = True
+                if self.bridge is not None:
+                    self.bridge.close()
+                if self.recorder is not None:
+                    self.recorder.finish()
+        finally:
+            self.storage.release()
+            if self._lock is not None:
+                self._lock.release()
 
 
 def world_of(cell: Cell) -> World:
@@ -314,7 +351,7 @@ class _Parts:
 
     cell: Cell
     tree: BuiltTree
-    recorder: RunRecorder | None
+    recorder: GuardedRecorder | None
     runner: Runner
 
 
@@ -339,10 +376,17 @@ def _nothing_to_do_line(summary: Summary) -> str:
             + (f" (the run ended {summary.status})" if summary.status else ""))
 
 
-def _resumed_bridge(run_dir: Path, doc: TreeDocument, marks: dict[str, str]) -> DesignBridge | None:
-    """The design bridge of a run to resume, caught up with its event log and a person's marks;
-    None when nothing is left to build. An element left `placing` stops the resume."""
-    bridge = DesignBridge(DesignModel.load(run_dir / ASBUILT_FILE), run_dir / ASBUILT_FILE, run_dir / EVENTS_FILE)
+def _resumed_bridge(run_dir: Path, doc: TreeDocument, marks: dict[str, str], box: Box) -> DesignBridge | None:
+    """The design bridge of a run to resume, its records checked (`check_run_records`: in the cell's
+    `box`, in the order a run writes them) and caught up with its event log and a person's marks;
+    None when every element is placed and the last session ended with the tree done (a session
+    stopped after the last placement resumes to finish the tree: the retreat, the way home). An
+    element left `placing` stops the resume."""
+    model = DesignModel.load(run_dir / ASBUILT_FILE)
+    check_run_records(run_dir, model, box, EVENTS_FILE, ASBUILT_FILE)
+    if torn := drop_torn_tail(run_dir / EVENTS_FILE):
+        print(f"{run_dir / EVENTS_FILE}: cut off its last line, torn by a crash ({torn} bytes)", file=sys.stderr)
+    bridge = DesignBridge(model, run_dir / ASBUILT_FILE, run_dir / EVENTS_FILE)
     bridge.catch_up()
     design = bridge.model
     for eid, status in marks.items():
@@ -362,9 +406,25 @@ def _resumed_bridge(run_dir: Path, doc: TreeDocument, marks: dict[str, str]) -> 
                 str(run_dir / ASBUILT_FILE),
                 hint=f"check the cell, then resume with --mark {eid}=placed (it stands there) "
                      f"or --mark {eid}=planned (remove it first; it will be built again)")
-    if all(design.is_placed(e) for e in design.build_order()) and design.build_order():
+    if all(design.is_placed(e) for e in design.build_order()) and design.build_order() \
+            and _last_session_ended(run_dir / EVENTS_FILE) in DONE:
         return None
     return bridge
+
+
+DONE = ("SUCCESS", TASK_FAILED)  # a session that ended so ran its tree to the end: nothing is left to do
+
+
+def _last_session_ended(events: Path) -> str | None:
+    """The status the last session of a run ended with (its `end` record after its `start`), or
+    None when it never logged its end (killed, or its log lost)."""
+    ended = None
+    for record in read_json_lines(events):
+        if record.get("event") == "start":
+            ended = None
+        elif record.get("event") == "end":
+            ended = record.get("status")
+    return ended if isinstance(ended, str) else None
 
 
 @contextmanager

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Callable
 from operator import attrgetter
 from pathlib import Path
 from typing import TextIO
@@ -19,15 +20,24 @@ STATUS = attrgetter("status")
 
 class TransitionLog:
     """Post-tick handler writing each node status change as a JSON line (tick, cell time, node
-    path, old -> new status, feedback), flushed every tick so a crashed run keeps its log."""
+    path, old -> new status, feedback), flushed every tick so a crashed run keeps its log.
 
-    def __init__(self, tree: BuiltTree, clock: Clock, path: Path):
+    A log that cannot be written (a full disk, a file-size limit) stops at its first failed write
+    and tells `on_lost(exception, since)`, and the run goes on: the as-built records matter more."""
+
+    def __init__(self, tree: BuiltTree, clock: Clock, path: Path,
+                 on_lost: Callable[[OSError, str], None] | None = None):
         self.clock = clock
+        self.on_lost = on_lost
         self._nodes = list(tree.nodes.items())
         self._last = {path: Status.INVALID for path, _ in self._nodes}
         self._node_objects = [node for _, node in self._nodes]
         self._seen = [Status.INVALID] * len(self._nodes)  # every node's status at the last record
-        self._file: TextIO | None = open(path, "a")  # noqa: SIM115 - open for the whole run; close() closes it
+        self._file: TextIO | None = None
+        try:
+            self._file = open(path, "a")  # noqa: SIM115 - open for the whole run; close() closes it
+        except OSError as exc:
+            self._lost(exc, "the start")
 
     def __call__(self, tree: py_trees.trees.BehaviourTree) -> None:
         self.record(tree.count)
@@ -47,13 +57,31 @@ class TransitionLog:
                                 "feedback": node.feedback_message})
                 self._last[path] = status
         if changes and self._file:
-            self._file.write("".join(json.dumps(c) + "\n" for c in changes))
-            self._file.flush()
+            try:
+                self._file.write("".join(json.dumps(c) + "\n" for c in changes))
+                self._file.flush()
+            except OSError as exc:
+                self._lost(exc, f"tick {tick}")
 
     def close(self) -> None:
         """Flush to disk and close; later records are dropped."""
         if self._file:
-            self._file.flush()
-            os.fsync(self._file.fileno())
-            self._file.close()
-            self._file = None
+            try:
+                self._file.flush()
+                os.fsync(self._file.fileno())
+            except OSError as exc:
+                self._lost(exc, "its end")
+            else:
+                self._file.close()
+                self._file = None
+
+    def _lost(self, exc: OSError, since: str) -> None:
+        """Stop writing (the records buffered are dropped) and tell `on_lost`."""
+        file, self._file = self._file, None
+        if file is not None:
+            try:
+                file.close()
+            except OSError:  # closing flushes the buffer again, into the same full disk
+                pass
+        if self.on_lost is not None:
+            self.on_lost(exc, since)

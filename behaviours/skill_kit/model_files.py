@@ -2,7 +2,7 @@
 
 A model path a tree gives is relative to the file the node is written in (never the working
 directory); `..` and absolute paths are allowed, since a model file holds plain arrays that are
-checked whole and cannot run code (`perception.learning.models`). A skill's default model ships
+checked whole, sized before they are inflated, and cannot run code (`perception.learning.models`). A skill's default model ships
 with the project and is relative to its root. The model is loaded and checked when the tree is
 validated (`check_model`) and again at setup, before the first tick; never during a tick.
 """

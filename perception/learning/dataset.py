@@ -15,16 +15,20 @@ A dataset is a NumPy .npz archive holding
 from __future__ import annotations
 
 import json
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from fvfiles.errors import FvtreeError
+from fvfiles.npz_files import npz_problem
 from perception.learning.features import check_spec
 
 FORMAT = "fvtree-recording"
 VERSION = 1
+
+MAX_BYTES = 1 << 30  # a recording's arrays, uncompressed: hours of ticks take tens of MiB
 
 
 class RecordingError(FvtreeError, ValueError):
@@ -63,7 +67,12 @@ class Dataset:
 
     @classmethod
     def load(cls, path: str | Path) -> Dataset:
-        """Read a recording; ValueError saying why if it is not one or its features differ."""
+        """Read a recording; ValueError saying why if it is not one, is too large uncompressed
+        (`MAX_BYTES`, from the zip directory and the .npy headers, before anything is inflated) or
+        its features differ."""
+        problem = npz_problem(path, MAX_BYTES) if zipfile.is_zipfile(path) else None
+        if problem:
+            raise RecordingError(f"not loaded: {problem}", str(path))
         try:
             data = np.load(path, allow_pickle=False)
             header = json.loads(str(data["header"]))

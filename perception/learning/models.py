@@ -26,13 +26,14 @@ from sklearn.pipeline import Pipeline, make_pipeline
 from sklearn.preprocessing import LabelBinarizer, StandardScaler
 
 from fvfiles.errors import FvtreeError
+from fvfiles.npz_files import npz_problem
 from perception.learning.features import check_spec, feature_spec
 
 FORMAT = "fvtree-model"
 VERSION = 2
 KINDS = ("force", "stir")
 SUFFIX = ".npz"
-MAX_BYTES = 64 << 20  # a model file larger than this is refused before it is read
+MAX_BYTES = 64 << 20  # a model file, or its arrays uncompressed, larger than this is refused before it is read
 
 
 class ModelError(FvtreeError, ValueError):
@@ -156,6 +157,12 @@ def _read(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
         raise ModelError(f"{path}: not a regular file")
     if path.stat().st_size > MAX_BYTES:
         raise ModelError(f"{path}: larger than {MAX_BYTES >> 20} MiB")
+    with open(path, "rb") as f:
+        magic = f.read(2)
+    if magic == b"PK":  # a zip: its arrays' sizes checked before any is inflated
+        problem = npz_problem(path, MAX_BYTES)
+        if problem:
+            raise ModelError(f"{path}: not loaded: {problem}")
     try:
         with np.load(path, allow_pickle=False) as npz:
             arrays = {name: npz[name] for name in npz.files}

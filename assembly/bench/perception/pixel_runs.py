@@ -5,6 +5,7 @@ the real FingerVision pipeline made of the rendered frame. Read by `errors.py`."
 from __future__ import annotations
 
 import dataclasses
+import shutil
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -47,7 +48,9 @@ def first_element_only(tree: Path, out_dir: Path) -> Path:
     design = (tree.parent / doc["design"]).resolve()
     first = DesignModel.load(design).build_order()[0]
     doc["design"] = str(design)
-    doc["include"] = [str((tree.parent / rel).resolve()) for rel in doc.get("include", [])]
+    for rel in doc.get("include") or []:  # copied beside the copy: a tree includes from its own folder only
+        (out_dir / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(tree.parent / rel, out_dir / rel)
 
     def restrict(node) -> None:
         if isinstance(node, dict):
