@@ -119,13 +119,15 @@ class Supervisor:
 
     def await_fresh_perception(self, sense: PerceptionSource, timeout: float = WARM_UP_S) -> None:
         """Before the first tick on a wall-clock cell: read perception until every fingertip's
-        state is within the staleness limit (at most `timeout` s), so that the first tick does not
-        stop the cell on a frame from before the run (calibration, setting the tree up). What is
-        still stale then trips the first tick as ever."""
+        state is healthy and within the staleness limit (at most `timeout` s), so that the first
+        tick does not stop the cell on a frame from before the run (calibration, setting the tree
+        up) or a camera still starting. What is still stale or unhealthy then trips the first tick
+        as ever."""
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             states, now = sense(), self.cell.clock.now()
-            if all(f in states and now - states[f].stamp <= self.settings.perception_stale_after for f in FINGERS):
+            if all(f in states and states[f].healthy and now - states[f].stamp <= self.settings.perception_stale_after
+                   for f in FINGERS):
                 return
             time.sleep(0.01)
 
