@@ -12,8 +12,8 @@ rather than placing it at a bad point.
 
 Slip is judged as a real sensor gives it: the pipeline's slip is image motion over the object,
 so the markers moving under a noisy load light it up as well. Each tick counts the slip beyond
-what the markers' own motion explains (`flow_gain`, `flow_saturation`: the pipeline's response
-measured by assembly/bench/perception/error_model_fit.py), and the grip counts as slipping only when the
+what the markers' own motion explains (`flow_gain`, `flow_saturation`: the pipeline's response, read
+from the cell's sensor profile unless given), and the grip counts as slipping only when the
 median of that (both fingers) over the last `slip_ticks` ticks exceeds `slip`: a sliding element
 moves its texture on every tick, a load change only on a few. A grip
 that gives way slowly stays under the slip noise; it shows in the profile instead, as a load
@@ -32,6 +32,7 @@ from behaviours.skill_kit.base import Param, ProgramSkill, magnitude, summed_for
 from behaviours.skill_kit.hand import slip_beyond_marker_flow
 from behaviours.skill_kit.load_search import locate_peak
 from behaviours.skill_kit.registry import register
+from behaviours.skill_kit.sensor import sensor_profile
 from behaviours.skill_kit.transit import plate_of
 from perception.state import TactileState
 
@@ -52,9 +53,10 @@ class FindMaxLoad(ProgramSkill):
                       "sliding in the grip", 0.1, min=0.0),
         "slip_ticks": Param("int", "ticks over which the slip's median is taken", 10, min=1),
         "flow_gain": Param("float", "slip the markers' own motion lights up, per px/frame of it and per unit of "
-                           "seen object area (0: take the slip as it comes)", 0.65, min=0.0),
-        "flow_saturation": Param("float", "marker motion beyond which the slip it lights up grows no more", 1.0,
-                                 "px", min=0.0),
+                           "seen object area (0: take the slip as it comes; default: the sensor profile's "
+                           "slip_flow_gain)", None, min=0.0),
+        "flow_saturation": Param("float", "marker motion beyond which the slip it lights up grows no more "
+                                 "(default: the sensor profile's slip_flow_saturation)", None, "px", min=0.0),
         "min_top_width": Param("float", "least width of the profile's top (within 3 % of the peak, or 5 sigma of the smoothed noise), as a share of "
                                "the scan: a plate's load changes smoothly, so a sharper peak means the grip gave way",
                                0.08, min=0.0, max=1.0),
@@ -83,6 +85,9 @@ class FindMaxLoad(ProgramSkill):
         hand.warm_up()  # the compiled marker motion loaded now, not on the scan's first tick
 
     def program(self):
+        profile = sensor_profile(self.cell)
+        self._flow = (profile.slip_flow_gain if self.p.flow_gain is None else self.p.flow_gain,
+                      profile.slip_flow_saturation if self.p.flow_saturation is None else self.p.flow_saturation)
         element = self.read(keys.ELEMENT)
         plate = plate_of(element, self.read(keys.PLATES, {}))
         outside = self.pose()  # beside the plate, foot on the ground
@@ -148,8 +153,8 @@ class FindMaxLoad(ProgramSkill):
             loads.append(-(left.force[0] + right.force[0] - f_ref[0]))
             before = last[0] or (left, right)
             last[0] = (left, right)
-            recent.append(slip_beyond_marker_flow(left, before[0], self.p.flow_gain, self.p.flow_saturation)
-                          + slip_beyond_marker_flow(right, before[1], self.p.flow_gain, self.p.flow_saturation))
+            recent.append(slip_beyond_marker_flow(left, before[0], *self._flow)
+                          + slip_beyond_marker_flow(right, before[1], *self._flow))
             slipped[0] = len(recent) == recent.maxlen and statistics.median(recent) > self.p.slip
             self.feedback_message = f"scan at {positions[-1]:.3f} m, load {loads[-1]:.2f}"
             if slipped[0]:

@@ -57,4 +57,4 @@ def build_sim_cell(path: Path, data: dict, request: CellRequest) -> Cell:
         sense = pixel_level_sense(world, sensors, clock, request.seed, workers=workers)
     closers = [sense.close] if mode == "pixels" else []  # pixel mode's worker processes
     return Cell(data.get("name", "sim"), SafeArm(arm, limits, clock), SafeGripper(gripper), clock, sense, world=world,
-                closers=closers)
+                closers=closers, sensor_profile=sensors["left"].profile)

@@ -12,6 +12,7 @@ from drivers.protocols import Clock, PerceptionSource, SceneArm, SceneGripper, W
 from drivers.sim.models.fingervision_model import SensorModel
 from drivers.sim.scenes import assembly, followme, handover, hold, press, stick, stir
 from fvfiles.errors import did_you_mean
+from perception.sensor_profile import DEFAULT_PROFILE, SensorProfile, SensorProfileError, load_profile
 from perception.state import FINGERS
 
 # name -> builder(arm, gripper, scene_args, world settings, seed) -> World
@@ -30,7 +31,7 @@ SCENES: dict[str, Callable[[SceneArm, SceneGripper, dict, dict, int], World]] = 
 # scene name -> the package providing it (plug-in packages add theirs through `assembly.language.plugins`)
 SCENE_PACKAGES: dict[str, str] = dict.fromkeys(SCENES, "fvtree")
 
-SENSOR_FIELDS = set(SensorModel.__dataclass_fields__) - {"finger", "seed"}
+SENSOR_FIELDS = set(SensorModel.__dataclass_fields__) - {"finger", "seed"}  # `profile`: a profile's name or path
 WORLD_FIELDS = set(assembly.SceneConfig.__dataclass_fields__) - {"seed"}
 
 
@@ -40,17 +41,31 @@ def world_settings(path: Path, data: dict, where: str = "") -> tuple[dict, dict]
             section(path, data, "world", known=WORLD_FIELDS, where=where))
 
 
+def sensor_profile(path: Path, name: object) -> SensorProfile:
+    """The sensor profile a cell file's `sensor.profile` names (a packaged profile or a path relative
+    to the cell file), or CellFileError naming the field."""
+    if not isinstance(name, str):
+        raise CellFileError(path, "sensor.profile", f"must be a profile's name or path, got {name!r}")
+    relative = Path(path).parent / name
+    try:
+        return load_profile(str(relative) if relative.suffix in (".yaml", ".yml") and relative.exists() else name)
+    except SensorProfileError as exc:
+        raise CellFileError(path, "sensor.profile", str(exc)) from None
+
+
 def build_world(path: Path, settings: tuple[dict, dict], arm: SceneArm, gripper: SceneGripper, clock: Clock,
                 scene: str, scene_args: dict, seed: int) -> tuple[World, dict[str, SensorModel], PerceptionSource]:
     """The scene a tree needs around `arm` and `gripper`, with the (sensor, world) `settings`:
     returns the world, its two FingerVision sensor models and the signal-level perception source
     reading them."""
     sensor_cfg, world_cfg = settings
+    sensor_cfg = dict(sensor_cfg)
+    profile = sensor_profile(path, sensor_cfg.pop("profile", DEFAULT_PROFILE))
     if scene not in SCENES:
         raise CellFileError(path, "scene", f"no simulated scene {scene!r}",
                             did_you_mean(scene, SCENES) or f"known: {', '.join(sorted(SCENES))}")
     world = SCENES[scene](arm, gripper, scene_args, world_cfg, seed)
-    sensors = {f: SensorModel(f, seed=seed * 2 + i, **sensor_cfg) for i, f in enumerate(FINGERS)}
+    sensors = {f: SensorModel(f, profile, seed=seed * 2 + i, **sensor_cfg) for i, f in enumerate(FINGERS)}
 
     def sense():
         contacts = world.contacts()
