@@ -1,6 +1,11 @@
 """Find where the plate loads the element most: lift the foot clear, slide in under the plate,
-slide along the span measuring the load through the fingers every tick, locate the peak
-(smoothing + local quadratic fit), go there and set the foot back down.
+slide along the span and back measuring the load through the fingers every tick, locate the peak
+of each pass (smoothing + local quadratic fit), go to their mean and set the foot back down.
+
+Scanning both ways keeps the accuracy with a lagging skin: the load the markers show trails the
+plate's by the skin's time constant, so each pass finds the peak about speed x lag past it along
+its way, and the two shifts cancel in the mean (measured by `python -m assembly.bench.skin_lag`;
+docs/physics.md has the figures). Half of their difference is written as the profile's `lag_shift`.
 
 The scan is only trusted when the grip held and the profile peaks clearly. A grip that slips
 under the plate's load caps the load the fingers feel, so the
@@ -21,6 +26,7 @@ cut off at what the grip carries: a peak sharper than a plate's (`min_top_width`
 
 from __future__ import annotations
 
+import dataclasses
 import statistics
 from collections import deque
 
@@ -62,6 +68,9 @@ class FindMaxLoad(ProgramSkill):
                                0.08, min=0.0, max=1.0),
         "min_clarity": Param("float", "least peak prominence, in units of the load noise, of a trusted maximum",
                              5.0, min=0.0),
+        "both_ways": Param("bool", "scan the span forth and back and take the mean of the two peaks: a "
+                           "lagging skin shifts each pass's peak along its way by about speed x lag, and the "
+                           "mean cancels it (false: one pass, half the time)", True),
         "max_regrasps": Param("int", "firmer re-grasps and rescans before giving up", 1, min=0, max=5),
         "regrasp_squeeze": Param("float", "further closing at each re-grasp", 0.01, "m", min=0.0005, max=0.03),
         "regrasp_force": Param("float", "gripper force limit of a re-grasp", 80.0, "N", min=1.0),
@@ -165,10 +174,36 @@ class FindMaxLoad(ProgramSkill):
                         f"max_scan_force {self.p.max_scan_force:g} N")
             return None
 
-        # Twice the time the scan should take, and a margin for the controller to get going.
+        # Twice the time a pass should take, and a margin for the controller to get going.
         timeout = 2.0 * abs(end - start) / self.p.speed + 10.0
-        stopped = yield from self.move(np.r_[end, pose[1:]], self.p.speed, timeout, watch=sample)
-        slipping = slipped[0]
+        passes = [(start, end), (end, start)] if self.p.both_ways else [(start, end)]
+        found: list = []
+        for a, b in passes:
+            first = len(positions)
+            if a != start:
+                self.feedback_message = "scanning back"
+            stopped = yield from self.move(np.r_[b, pose[1:]], self.p.speed, timeout, watch=sample)
+            peak, problem, firmer_helps = self.judge(element, positions[first:], loads[first:], stopped, slipped[0])
+            if problem:
+                return peak, problem, firmer_helps
+            found.append(peak)
+        if len(found) == 2:  # the skin's lag shifts each pass's peak along its way: the mean cancels it
+            forward, back = found
+            peak = dataclasses.replace(forward, position=0.5 * (forward.position + back.position),
+                                       load=0.5 * (forward.load + back.load))
+            lag_shift = 0.5 * (forward.position - back.position)
+        else:
+            peak, lag_shift = found[0], 0.0
+        self.write(keys.LOAD_PROFILE, {
+            "plate": element["plate"], "position": np.array(positions), "load": np.array(loads),
+            "smoothed": found[0].smoothed, "best_position": peak.position, "best_load": peak.load,
+            "clarity": min(p.clarity for p in found), "top_share": max(p.top_share for p in found),
+            "grip_slipped": False, "passes": len(found), "lag_shift": lag_shift})
+        return peak, None, False
+
+    def judge(self, element: dict, positions: list[float], loads: list[float], stopped: str | None,
+              slipping: bool):
+        """One pass's (peak, problem, whether a firmer grip could help), problem None for a trusted peak."""
         if stopped and not slipping or len(positions) < 5:
             return None, stopped or "the scan ended at once", slipping
         peak = locate_peak(positions, loads, self.p.smoothing, self.p.fit_half_width)

@@ -29,6 +29,9 @@ class Cell:
     # The fingertips' sensor profile (gains, rest jitter, ...), which skills read instead of constants;
     # a simulated cell's is the one its file names (`sensor.profile`), other cells' the default.
     sensor_profile: SensorProfile = field(default_factory=default_profile)
+    # Takes the arm's present TCP force reading as zero (ur_rtde's zeroFtSensor); None where the cell's
+    # arm driver offers none (the hardware driver passes the UR's reading raw: skills take a baseline).
+    zero_force_sensor: Callable[[], None] | None = None
 
     @property
     def simulated(self) -> bool:

@@ -56,6 +56,10 @@ class SensorProfile:
     image_size: tuple[int, int] = (320, 240)
     slip_flow_gain: float = 0.65  # slip the pipeline reports per px/frame of marker motion, per unit of object area
     slip_flow_saturation: float = 1.0  # px/frame of marker motion beyond which that slip grows no more
+    skin_lag_s: float = 0.0  # s, time constant of the skin's fast response to a load (0: instant)
+    skin_creep_share: float = 0.0  # share of a load the skin shows only after its slow creep
+    skin_creep_s: float = 0.0  # s, time constant of that creep (and of the relaxation after unloading)
+    skin_hysteresis: float = 0.0  # unloading is (1 + this) times slower than loading
     sources: dict[str, str] = field(default_factory=dict, compare=False)
 
     def __post_init__(self) -> None:
@@ -63,6 +67,8 @@ class SensorProfile:
             value = getattr(self, f.name)
             if isinstance(value, float) and (not math.isfinite(value) or value < 0.0):
                 raise SensorProfileError(f"{f.name} must be a finite number >= 0, got {value!r}")
+        if self.skin_creep_share > 1.0:
+            raise SensorProfileError(f"skin_creep_share must be in [0, 1], got {self.skin_creep_share}")
         if not 0.0 <= self.jitter_persistence < 1.0:
             raise SensorProfileError(f"jitter_persistence must be in [0, 1), got {self.jitter_persistence}")
         if self.marker_spacing_px <= self.marker_diameter_px:
