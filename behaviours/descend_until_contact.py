@@ -7,8 +7,11 @@ zeroing a real UR needs: it reads several newtons of pose- and payload-dependent
 that offers `zero_force_sensor` is zeroed first, as ur_rtde's zeroFtSensor does) and its rest
 noise. Contact is a change beyond `noise_factor` times that noise, and never less than `eps`
 (px) or `force_eps` (N). The fingertips are read along their surfaces (shear, summed over both):
-a held object touching down is pushed along the fingers, while the closing axis carries the grip,
-whose normal reading is the noisiest (markers lost under a firm grip move the mean most)."""
+a held object touching down is pushed along the fingers, while the closing axis carries the grip.
+Each marker's force is compared with its own reference, averaged over the markers tracked now: under
+a firm grip the markers are spread by several px, and the mean force over whichever markers happen
+to be tracked moves by a few tenths of a px as the tracker loses and finds them; per-marker changes
+do not (`skill_kit.marker_shift`)."""
 
 from __future__ import annotations
 
@@ -18,8 +21,10 @@ import numpy as np
 from py_trees.common import Status
 
 from behaviours.skill_kit import keys
-from behaviours.skill_kit.base import Param, ProgramSkill, magnitude, summed_force
+from behaviours.skill_kit.base import Param, ProgramSkill, magnitude
+from behaviours.skill_kit.marker_shift import MarkerShift
 from behaviours.skill_kit.registry import register
+from perception.state import TactileState
 
 
 @register
@@ -47,11 +52,15 @@ class DescendUntilContact(ProgramSkill):
         zero = getattr(self.cell, "zero_force_sensor", None)
         if zero is not None:  # a cell that can zero its TCP force sensor does so; the baseline below stays
             zero()
-        forces, wrenches = [], []
+        shift = MarkerShift()
+        references: list[tuple[TactileState, TactileState]] = []
+        wrenches = []
         for _ in range(self.p.reference_ticks):
             yield
-            forces.append(along_surfaces(summed_force(*self.tactile())))
+            references.append(self.tactile())
+            shift.add_reference(*references[-1])
             wrenches.append(np.array(self.read(keys.ROBOT_WRENCH)[:3], dtype=float))
+        forces = [along_surfaces(shift.change(*states)) for states in references]
         f0, finger_noise = rest_level(running_median(np.array(forces), self.p.smoothing))
         w0, arm_noise = rest_level(np.array(wrenches))
         eps = max(self.p.eps, self.p.noise_factor * finger_noise)
@@ -62,7 +71,7 @@ class DescendUntilContact(ProgramSkill):
         while True:
             yield
             left, right = self.tactile()
-            recent.append(along_surfaces(summed_force(left, right)))
+            recent.append(along_surfaces(shift.change(left, right)))
             change = magnitude(np.median(np.array(recent), axis=0) - f0)
             felt = magnitude(self.read(keys.ROBOT_WRENCH)[:3] - w0)
             pose = self.pose()
@@ -88,7 +97,7 @@ def rest_level(samples: np.ndarray) -> tuple[np.ndarray, float]:
 
 
 def along_surfaces(force: np.ndarray) -> np.ndarray:
-    """The components of a hand force along the fingers' surfaces (image x and y; not the closing axis)."""
+    """The components of a finger-convention hand force along the fingers' surfaces (image x and y)."""
     return force[[0, 2]]
 
 
