@@ -178,6 +178,7 @@ class FindMaxLoad(ProgramSkill):
         timeout = 2.0 * abs(end - start) / self.p.speed + 10.0
         passes = [(start, end), (end, start)] if self.p.both_ways else [(start, end)]
         found: list = []
+        smoothed: list[np.ndarray] = []  # each pass's smoothed load, in the order it was sampled
         for a, b in passes:
             first = len(positions)
             if a != start:
@@ -187,6 +188,7 @@ class FindMaxLoad(ProgramSkill):
             if problem:
                 return peak, problem, firmer_helps
             found.append(peak)
+            smoothed.append(in_sampled_order(positions[first:], peak.smoothed))
         if len(found) == 2:  # the skin's lag shifts each pass's peak along its way: the mean cancels it
             forward, back = found
             peak = dataclasses.replace(forward, position=0.5 * (forward.position + back.position),
@@ -196,7 +198,7 @@ class FindMaxLoad(ProgramSkill):
             peak, lag_shift = found[0], 0.0
         self.write(keys.LOAD_PROFILE, {
             "plate": element["plate"], "position": np.array(positions), "load": np.array(loads),
-            "smoothed": found[0].smoothed, "best_position": peak.position, "best_load": peak.load,
+            "smoothed": np.concatenate(smoothed), "best_position": peak.position, "best_load": peak.load,
             "clarity": min(p.clarity for p in found), "top_share": max(p.top_share for p in found),
             "grip_slipped": False, "passes": len(found), "lag_shift": lag_shift})
         return peak, None, False
@@ -213,8 +215,9 @@ class FindMaxLoad(ProgramSkill):
         drifted = not slipping and float(peak.smoothed.min()) < -abs(peak.load)
         self.write(keys.LOAD_PROFILE, {
             "plate": element["plate"], "position": np.array(positions), "load": np.array(loads),
-            "smoothed": peak.smoothed, "best_position": peak.position, "best_load": peak.load,
-            "clarity": peak.clarity, "top_share": peak.top_share, "grip_slipped": slipping or sharp or drifted})
+            "smoothed": in_sampled_order(positions, peak.smoothed), "best_position": peak.position,
+            "best_load": peak.load, "clarity": peak.clarity, "top_share": peak.top_share,
+            "grip_slipped": slipping or sharp or drifted})
         if slipping:
             return peak, stopped, True
         if peak.load < self.p.min_load:
@@ -258,3 +261,11 @@ class FindMaxLoad(ProgramSkill):
         self.feedback_message = f"re-grasp {attempt}: closing with up to {self.p.regrasp_force:.0f} N"
         speed = self.p.regrasp_squeeze / 0.5  # over half a second
         return (yield from self.grip(self.gripper_width() - self.p.regrasp_squeeze, speed, self.p.regrasp_force))
+
+
+def in_sampled_order(positions: list[float], by_position: np.ndarray) -> np.ndarray:
+    """Values `locate_peak` gives in ascending position order, put back in the order the positions
+    were sampled (a pass scanning back samples them descending)."""
+    out = np.empty(len(positions))
+    out[np.argsort(np.asarray(positions, dtype=float))] = by_position
+    return out

@@ -129,6 +129,8 @@ def test_find_max_load_scanning_both_ways_cancels_the_skins_lag(both_ways):
     h.script(lagging_plate(h, 0.57, lag, np.random.default_rng(0)))
     assert h.run_until_done(9000).name == "SUCCESS"
     error = h.blackboard("/task/best_pose")[0] - PLATES["P1"]["origin"][0] - 0.57
+    profile = h.blackboard("/task/load_profile")
+    assert len(profile["position"]) == len(profile["load"]) == len(profile["smoothed"])  # plotted side by side
     if both_ways:
         assert abs(error) < 0.01
         assert h.blackboard("/task/load_profile")["lag_shift"] == pytest.approx(speed * lag, rel=0.3)

@@ -112,4 +112,6 @@ def test_profile_marker_size_and_spacing_match_the_real_clip():
             spacings += d.min(axis=1).tolist()
     p = default_profile()
     assert np.percentile(diameters, 10) <= p.marker_diameter_px <= np.percentile(diameters, 90)
-    assert np.percentile(spacings, 10) <= p.marker_spacing_px <= np.median(spacings)
+    # a flat lattice as dense as the clip's squashed rim (the profile's source says why), as many markers
+    assert 0.95 * np.percentile(spacings, 10) <= p.marker_spacing_px <= np.median(spacings)
+    assert 29 <= len(layout_of(p)) <= 31
