@@ -205,35 +205,43 @@ class FindMaxLoad(ProgramSkill):
 
     def judge(self, element: dict, positions: list[float], loads: list[float], stopped: str | None,
               slipping: bool):
-        """One pass's (peak, problem, whether a firmer grip could help), problem None for a trusted peak."""
+        """One pass's (peak, problem, whether a firmer grip could help), problem None for a trusted
+        peak; a pass with a problem writes its load profile (a trusted one is written with the scan's)."""
         if stopped and not slipping or len(positions) < 5:
             return None, stopped or "the scan ended at once", slipping
         peak = locate_peak(positions, loads, self.p.smoothing, self.p.fit_half_width)
+        verdict = self.verdict(peak, stopped, slipping)
+        if verdict[1] is not None:
+            self.write(keys.LOAD_PROFILE, {
+                "plate": element["plate"], "position": np.array(positions), "load": np.array(loads),
+                "smoothed": in_sampled_order(positions, peak.smoothed), "best_position": peak.position,
+                "best_load": peak.load, "clarity": peak.clarity, "top_share": peak.top_share,
+                "grip_slipped": verdict[3]})
+        return verdict[:3]
+
+    def verdict(self, peak, stopped: str | None, slipping: bool):
+        """(peak, problem, whether a firmer grip could help, whether the grip slipped) of a located peak."""
         sharp = not slipping and peak.clarity >= self.p.min_clarity and peak.top_share < self.p.min_top_width
         # A plate only pushes: a profile that falls below its start by more than its peak measured a
         # grip that shifted under the element's weight, not the plate.
         drifted = not slipping and float(peak.smoothed.min()) < -abs(peak.load)
-        self.write(keys.LOAD_PROFILE, {
-            "plate": element["plate"], "position": np.array(positions), "load": np.array(loads),
-            "smoothed": in_sampled_order(positions, peak.smoothed), "best_position": peak.position,
-            "best_load": peak.load, "clarity": peak.clarity, "top_share": peak.top_share,
-            "grip_slipped": slipping or sharp or drifted})
+        slipped = slipping or sharp or drifted
         if slipping:
-            return peak, stopped, True
+            return peak, stopped, True, slipped
         if peak.load < self.p.min_load:
             return peak, (f"no load found along the plate (peak {peak.load:.2f} px < {self.p.min_load} px): "
-                          "the element never reached it"), False
+                          "the element never reached it"), False, slipped
         if peak.clarity < self.p.min_clarity:
             return peak, (f"no clear maximum along the plate (peak {peak.clarity:.1f} times the load noise "
-                          f"above the rest of the profile, needs {self.p.min_clarity:g})"), True
+                          f"above the rest of the profile, needs {self.p.min_clarity:g})"), True, slipped
         if sharp:
             return peak, (f"the element slipped in the grip at {peak.sample_position:.3f} m along the plate: the load "
                           f"peaked there more sharply than a plate can (top {peak.top_share:.0%} of the scan wide, "
-                          f"min_top_width {self.p.min_top_width:.0%})"), True
+                          f"min_top_width {self.p.min_top_width:.0%})"), True, slipped
         if drifted:
             return peak, (f"the element shifted in the grip during the scan: the load fell to "
-                          f"{peak.smoothed.min():.2f} px, below its start by more than its peak {peak.load:.2f} px"), True
-        return peak, None, False
+                          f"{peak.smoothed.min():.2f} px, below its start by more than its peak {peak.load:.2f} px"), True, slipped
+        return peak, None, False, slipped
 
     def regrasp(self, outside: np.ndarray, attempt: int):
         """Slide back out from under the plate, set the foot on the ground so it carries the

@@ -54,6 +54,14 @@ class ForceSensedArm:
     def __getattr__(self, name: str) -> Any:
         return getattr(self._arm, name)
 
+    def __setattr__(self, name: str, value: Any) -> None:
+        """The wrapper's own state is private; anything else (a fault injected by a test, the
+        scene's external wrench) is the arm's."""
+        if name.startswith("_"):
+            object.__setattr__(self, name, value)
+        else:
+            setattr(self._arm, name, value)
+
     def _error(self) -> np.ndarray:
         """Offset + drift + this tick's noise (drawn once per cell tick)."""
         now = self._clock.now()
