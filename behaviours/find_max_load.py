@@ -1,6 +1,11 @@
 """Find where the plate loads the element most: lift the foot clear, slide in under the plate,
-slide along the span measuring the load through the fingers every tick, locate the peak
-(smoothing + local quadratic fit), go there and set the foot back down.
+slide along the span and back measuring the load through the fingers every tick, locate the peak
+of each pass (smoothing + local quadratic fit), go to their mean and set the foot back down.
+
+Scanning both ways keeps the accuracy with a lagging skin: the load the markers show trails the
+plate's by the skin's time constant, so each pass finds the peak about speed x lag past it along
+its way, and the two shifts cancel in the mean (measured by `python -m assembly.bench.skin_lag`;
+docs/physics.md has the figures). Half of their difference is written as the profile's `lag_shift`.
 
 The scan is only trusted when the grip held and the profile peaks clearly. A grip that slips
 under the plate's load caps the load the fingers feel, so the
@@ -12,8 +17,8 @@ rather than placing it at a bad point.
 
 Slip is judged as a real sensor gives it: the pipeline's slip is image motion over the object,
 so the markers moving under a noisy load light it up as well. Each tick counts the slip beyond
-what the markers' own motion explains (`flow_gain`, `flow_saturation`: the pipeline's response
-measured by assembly/bench/perception/error_model_fit.py), and the grip counts as slipping only when the
+what the markers' own motion explains (`flow_gain`, `flow_saturation`: the pipeline's response, read
+from the cell's sensor profile unless given), and the grip counts as slipping only when the
 median of that (both fingers) over the last `slip_ticks` ticks exceeds `slip`: a sliding element
 moves its texture on every tick, a load change only on a few. A grip
 that gives way slowly stays under the slip noise; it shows in the profile instead, as a load
@@ -21,6 +26,7 @@ cut off at what the grip carries: a peak sharper than a plate's (`min_top_width`
 
 from __future__ import annotations
 
+import dataclasses
 import statistics
 from collections import deque
 
@@ -32,6 +38,7 @@ from behaviours.skill_kit.base import Param, ProgramSkill, magnitude, summed_for
 from behaviours.skill_kit.hand import slip_beyond_marker_flow
 from behaviours.skill_kit.load_search import locate_peak
 from behaviours.skill_kit.registry import register
+from behaviours.skill_kit.sensor import sensor_profile
 from behaviours.skill_kit.transit import plate_of
 from perception.state import TactileState
 
@@ -52,14 +59,18 @@ class FindMaxLoad(ProgramSkill):
                       "sliding in the grip", 0.1, min=0.0),
         "slip_ticks": Param("int", "ticks over which the slip's median is taken", 10, min=1),
         "flow_gain": Param("float", "slip the markers' own motion lights up, per px/frame of it and per unit of "
-                           "seen object area (0: take the slip as it comes)", 0.65, min=0.0),
-        "flow_saturation": Param("float", "marker motion beyond which the slip it lights up grows no more", 1.0,
-                                 "px", min=0.0),
+                           "seen object area (0: take the slip as it comes; default: the sensor profile's "
+                           "slip_flow_gain)", None, min=0.0),
+        "flow_saturation": Param("float", "marker motion beyond which the slip it lights up grows no more "
+                                 "(default: the sensor profile's slip_flow_saturation)", None, "px", min=0.0),
         "min_top_width": Param("float", "least width of the profile's top (within 3 % of the peak, or 5 sigma of the smoothed noise), as a share of "
                                "the scan: a plate's load changes smoothly, so a sharper peak means the grip gave way",
                                0.08, min=0.0, max=1.0),
         "min_clarity": Param("float", "least peak prominence, in units of the load noise, of a trusted maximum",
                              5.0, min=0.0),
+        "both_ways": Param("bool", "scan the span forth and back and take the mean of the two peaks: a "
+                           "lagging skin shifts each pass's peak along its way by about speed x lag, and the "
+                           "mean cancels it (false: one pass, half the time)", True),
         "max_regrasps": Param("int", "firmer re-grasps and rescans before giving up", 1, min=0, max=5),
         "regrasp_squeeze": Param("float", "further closing at each re-grasp", 0.01, "m", min=0.0005, max=0.03),
         "regrasp_force": Param("float", "gripper force limit of a re-grasp", 80.0, "N", min=1.0),
@@ -83,6 +94,9 @@ class FindMaxLoad(ProgramSkill):
         hand.warm_up()  # the compiled marker motion loaded now, not on the scan's first tick
 
     def program(self):
+        profile = sensor_profile(self.cell)
+        self._flow = (profile.slip_flow_gain if self.p.flow_gain is None else self.p.flow_gain,
+                      profile.slip_flow_saturation if self.p.flow_saturation is None else self.p.flow_saturation)
         element = self.read(keys.ELEMENT)
         plate = plate_of(element, self.read(keys.PLATES, {}))
         outside = self.pose()  # beside the plate, foot on the ground
@@ -148,8 +162,8 @@ class FindMaxLoad(ProgramSkill):
             loads.append(-(left.force[0] + right.force[0] - f_ref[0]))
             before = last[0] or (left, right)
             last[0] = (left, right)
-            recent.append(slip_beyond_marker_flow(left, before[0], self.p.flow_gain, self.p.flow_saturation)
-                          + slip_beyond_marker_flow(right, before[1], self.p.flow_gain, self.p.flow_saturation))
+            recent.append(slip_beyond_marker_flow(left, before[0], *self._flow)
+                          + slip_beyond_marker_flow(right, before[1], *self._flow))
             slipped[0] = len(recent) == recent.maxlen and statistics.median(recent) > self.p.slip
             self.feedback_message = f"scan at {positions[-1]:.3f} m, load {loads[-1]:.2f}"
             if slipped[0]:
@@ -160,37 +174,74 @@ class FindMaxLoad(ProgramSkill):
                         f"max_scan_force {self.p.max_scan_force:g} N")
             return None
 
-        # Twice the time the scan should take, and a margin for the controller to get going.
+        # Twice the time a pass should take, and a margin for the controller to get going.
         timeout = 2.0 * abs(end - start) / self.p.speed + 10.0
-        stopped = yield from self.move(np.r_[end, pose[1:]], self.p.speed, timeout, watch=sample)
-        slipping = slipped[0]
+        passes = [(start, end), (end, start)] if self.p.both_ways else [(start, end)]
+        found: list = []
+        smoothed: list[np.ndarray] = []  # each pass's smoothed load, in the order it was sampled
+        for a, b in passes:
+            first = len(positions)
+            if a != start:
+                self.feedback_message = "scanning back"
+            stopped = yield from self.move(np.r_[b, pose[1:]], self.p.speed, timeout, watch=sample)
+            peak, problem, firmer_helps = self.judge(element, positions[first:], loads[first:], stopped, slipped[0])
+            if problem:
+                return peak, problem, firmer_helps
+            found.append(peak)
+            smoothed.append(in_sampled_order(positions[first:], peak.smoothed))
+        if len(found) == 2:  # the skin's lag shifts each pass's peak along its way: the mean cancels it
+            forward, back = found
+            peak = dataclasses.replace(forward, position=0.5 * (forward.position + back.position),
+                                       load=0.5 * (forward.load + back.load))
+            lag_shift = 0.5 * (forward.position - back.position)
+        else:
+            peak, lag_shift = found[0], 0.0
+        self.write(keys.LOAD_PROFILE, {
+            "plate": element["plate"], "position": np.array(positions), "load": np.array(loads),
+            "smoothed": np.concatenate(smoothed), "best_position": peak.position, "best_load": peak.load,
+            "clarity": min(p.clarity for p in found), "top_share": max(p.top_share for p in found),
+            "grip_slipped": False, "passes": len(found), "lag_shift": lag_shift})
+        return peak, None, False
+
+    def judge(self, element: dict, positions: list[float], loads: list[float], stopped: str | None,
+              slipping: bool):
+        """One pass's (peak, problem, whether a firmer grip could help), problem None for a trusted
+        peak; a pass with a problem writes its load profile (a trusted one is written with the scan's)."""
         if stopped and not slipping or len(positions) < 5:
             return None, stopped or "the scan ended at once", slipping
         peak = locate_peak(positions, loads, self.p.smoothing, self.p.fit_half_width)
+        verdict = self.verdict(peak, stopped, slipping)
+        if verdict[1] is not None:
+            self.write(keys.LOAD_PROFILE, {
+                "plate": element["plate"], "position": np.array(positions), "load": np.array(loads),
+                "smoothed": in_sampled_order(positions, peak.smoothed), "best_position": peak.position,
+                "best_load": peak.load, "clarity": peak.clarity, "top_share": peak.top_share,
+                "grip_slipped": verdict[3]})
+        return verdict[:3]
+
+    def verdict(self, peak, stopped: str | None, slipping: bool):
+        """(peak, problem, whether a firmer grip could help, whether the grip slipped) of a located peak."""
         sharp = not slipping and peak.clarity >= self.p.min_clarity and peak.top_share < self.p.min_top_width
         # A plate only pushes: a profile that falls below its start by more than its peak measured a
         # grip that shifted under the element's weight, not the plate.
         drifted = not slipping and float(peak.smoothed.min()) < -abs(peak.load)
-        self.write(keys.LOAD_PROFILE, {
-            "plate": element["plate"], "position": np.array(positions), "load": np.array(loads),
-            "smoothed": peak.smoothed, "best_position": peak.position, "best_load": peak.load,
-            "clarity": peak.clarity, "top_share": peak.top_share, "grip_slipped": slipping or sharp or drifted})
+        slipped = slipping or sharp or drifted
         if slipping:
-            return peak, stopped, True
+            return peak, stopped, True, slipped
         if peak.load < self.p.min_load:
             return peak, (f"no load found along the plate (peak {peak.load:.2f} px < {self.p.min_load} px): "
-                          "the element never reached it"), False
+                          "the element never reached it"), False, slipped
         if peak.clarity < self.p.min_clarity:
             return peak, (f"no clear maximum along the plate (peak {peak.clarity:.1f} times the load noise "
-                          f"above the rest of the profile, needs {self.p.min_clarity:g})"), True
+                          f"above the rest of the profile, needs {self.p.min_clarity:g})"), True, slipped
         if sharp:
             return peak, (f"the element slipped in the grip at {peak.sample_position:.3f} m along the plate: the load "
                           f"peaked there more sharply than a plate can (top {peak.top_share:.0%} of the scan wide, "
-                          f"min_top_width {self.p.min_top_width:.0%})"), True
+                          f"min_top_width {self.p.min_top_width:.0%})"), True, slipped
         if drifted:
             return peak, (f"the element shifted in the grip during the scan: the load fell to "
-                          f"{peak.smoothed.min():.2f} px, below its start by more than its peak {peak.load:.2f} px"), True
-        return peak, None, False
+                          f"{peak.smoothed.min():.2f} px, below its start by more than its peak {peak.load:.2f} px"), True, slipped
+        return peak, None, False, slipped
 
     def regrasp(self, outside: np.ndarray, attempt: int):
         """Slide back out from under the plate, set the foot on the ground so it carries the
@@ -218,3 +269,11 @@ class FindMaxLoad(ProgramSkill):
         self.feedback_message = f"re-grasp {attempt}: closing with up to {self.p.regrasp_force:.0f} N"
         speed = self.p.regrasp_squeeze / 0.5  # over half a second
         return (yield from self.grip(self.gripper_width() - self.p.regrasp_squeeze, speed, self.p.regrasp_force))
+
+
+def in_sampled_order(positions: list[float], by_position: np.ndarray) -> np.ndarray:
+    """Values `locate_peak` gives in ascending position order, put back in the order the positions
+    were sampled (a pass scanning back samples them descending)."""
+    out = np.empty(len(positions))
+    out[np.argsort(np.asarray(positions, dtype=float))] = by_position
+    return out

@@ -1,6 +1,8 @@
 """ForceTrack+SpeedCtrl: move the hand along the force a person puts on the held object,
 x_{t+1} = x_t + alpha (f_t - f_min) 1(|f_t| > eps), alpha = (v_max - v_min) / (f_max - f_min),
-on the marker force relative to the grasp's own (taken at the start)."""
+on the marker force relative to the grasp's own (taken at the start). The closing-axis (normal)
+component is weighted by the sensor's shear/normal gain ratio (`normal_scale`, from the cell's sensor
+profile unless given), so a newton counts the same on every axis."""
 
 from __future__ import annotations
 
@@ -11,6 +13,7 @@ from behaviours.skill_kit.control import MovingAverage, speed_ctrl, speed_ctrl_g
 from behaviours.skill_kit.follow_me import TrackingSkill
 from behaviours.skill_kit.hand import hand_force
 from behaviours.skill_kit.registry import register
+from behaviours.skill_kit.sensor import sensor_profile
 
 
 @register
@@ -23,8 +26,8 @@ class ForceTrack(TrackingSkill):
         "f_min": Param("float", "force mapped to v_min", 0.05, "px", min=0.0),
         "f_max": Param("float", "force mapped to v_max", 2.0, "px", min=0.0),
         "eps": Param("float", "dead band: smaller forces do not move the arm", 0.08, "px", min=0.0),
-        "normal_scale": Param("float", "weight of the closing-axis force, which moves the markers "
-                              "less per newton than shear", 5.6, min=0.0),
+        "normal_scale": Param("float", "weight of the closing-axis force (default: the sensor profile's "
+                              "shear/normal gain ratio, so forces compare in newtons)", None, min=0.0),
         "smoothing": Param("int", "ticks in the force moving average", 3, min=1),
         "reference_ticks": Param("int", "ticks averaged for the grasp's own force f_0", 10, min=1),
         **TrackingSkill.COMMON,
@@ -38,7 +41,10 @@ class ForceTrack(TrackingSkill):
             raise ValueError(f"v_max ({params['v_max']}) must not be below v_min ({params['v_min']})")
 
     def start(self):
-        self._scale = np.array([1.0, self.p.normal_scale, 1.0])
+        scale = self.p.normal_scale
+        if scale is None:
+            scale = sensor_profile(self.cell).shear_to_normal
+        self._scale = np.array([1.0, scale, 1.0])
         self._average = MovingAverage(self.p.smoothing)
         total = np.zeros(3)
         for _ in range(self.p.reference_ticks):

@@ -29,7 +29,8 @@ from behaviours.skill_kit import keys
 from behaviours.skill_kit.base import Param, ProgramSkill, gone_share
 from behaviours.skill_kit.control import ForceChangeDetector, LeakyIntegrator
 from behaviours.skill_kit.geometry import rotation
-from behaviours.skill_kit.hand import hand_force, object_area, still_seen, total_slip
+from behaviours.skill_kit.hand import object_area, still_seen, total_slip
+from behaviours.skill_kit.marker_shift import MarkerShift, hand_axes
 from behaviours.skill_kit.registry import register
 from perception.wrench import marker_forces
 
@@ -106,14 +107,15 @@ class Handover(ProgramSkill):
         held_area = object_area(*self.tactile())
         if held_area <= 0.0:
             return self.fail("nothing in the gripper to give")
-        f0 = self._pull()
+        shift = MarkerShift()  # the pull read marker by marker: a firm grip's lost markers do not move it
+        shift.add_reference(*self.tactile())
         recent: deque[float] = deque(maxlen=self.RATE_TICKS + 1)
         while True:
             if not still_seen(object_area(*self.tactile()), held_area, self.p.gone_share):
                 return self.fail("the object slipped out while waiting for the person: grasp it firmer, "
                                  "or hold it with 'hold'")
             felt = self._pressed(detector) or total_slip(*self.tactile()) > self.p.slip
-            pull = self._pull() - f0
+            pull = rotation(self.pose()) @ hand_axes(shift.change(*self.tactile()))
             recent.append(float(np.linalg.norm(pull)))
             kind = self._kind_of(pull, recent)
             if felt and kind == "tug":
@@ -135,10 +137,6 @@ class Handover(ProgramSkill):
             yield
         self.feedback_message = "given"
         return Status.SUCCESS
-
-    def _pull(self) -> np.ndarray:
-        """The force the object puts on the hand, in the base frame (px)."""
-        return rotation(self.pose()) @ hand_force(*self.tactile())
 
     def _kind_of(self, pull: np.ndarray, recent: deque) -> str | None:
         """'tug', 'weight', or None (no pull yet) for the change `pull` of the hand force since

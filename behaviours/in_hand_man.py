@@ -11,8 +11,9 @@ from py_trees.common import Status
 
 from behaviours.skill_kit import keys
 from behaviours.skill_kit.base import Param, ProgramSkill, time_limit
-from behaviours.skill_kit.hand import SteadyAngle, object_angle, total_slip
+from behaviours.skill_kit.hand import SteadyAngle, object_angle, slip_beyond_marker_flow
 from behaviours.skill_kit.registry import register
+from behaviours.skill_kit.sensor import sensor_profile
 
 
 @register
@@ -38,13 +39,20 @@ class InHandMan(ProgramSkill):
             return self.fail("no object seen between the fingers to pivot")
         width0, turned, start, slipped = self.gripper_width(), 0.0, self.now(), False
         speed = self.p.step / self.cell.clock.period
+        # The markers moving as the grip opens light up the pipeline's slip too: count only the slip
+        # beyond what their motion explains (the sensor profile's slip response).
+        profile = sensor_profile(self.cell)
+        flow = (profile.slip_flow_gain, profile.slip_flow_saturation)
+        before = self.tactile()
         while turned <= self.p.target:
             left, right = self.tactile()
             theta = angle.update(object_angle(left, right))
             if theta is None:
                 return self.fail(f"the object fell out after turning {turned:.0f} deg: use a smaller 'step'")
             turned = math.degrees(abs(theta - theta0))
-            slipping = total_slip(left, right) >= self.p.slip
+            slip = slip_beyond_marker_flow(left, before[0], *flow) + slip_beyond_marker_flow(right, before[1], *flow)
+            before = (left, right)
+            slipping = slip >= self.p.slip
             slipped = slipped or slipping
             width = self.gripper_width() + (-self.p.step if slipping else self.p.step)
             if width > width0 + self.p.opening:

@@ -10,6 +10,7 @@ from drivers.clock import SimClock, WallClock
 from drivers.protocols import Camera, PerceptionSource, World
 from drivers.safe_gripper import SafeGripper
 from drivers.safety import SafeArm
+from perception.sensor_profile import SensorProfile, default_profile
 
 
 @dataclass
@@ -25,6 +26,12 @@ class Cell:
     world: World | None = None  # the simulated scene (on an emulated cell, its shadow); None on hardware
     estop: bool = False  # set by an e-stop input; the runner halts the tree when it is set
     closers: list[Callable[[], None]] = field(default_factory=list)
+    # The fingertips' sensor profile (gains, rest jitter, ...), which skills read instead of constants;
+    # a simulated cell's is the one its file names (`sensor.profile`), other cells' the default.
+    sensor_profile: SensorProfile = field(default_factory=default_profile)
+    # Takes the arm's present TCP force reading as zero (ur_rtde's zeroFtSensor); None where the cell's
+    # arm driver offers none (the hardware driver passes the UR's reading raw: skills take a baseline).
+    zero_force_sensor: Callable[[], None] | None = None
 
     @property
     def simulated(self) -> bool:

@@ -53,9 +53,9 @@ def record_shortened(tmp_path_factory):
     from assembly.dataset_recorder import record
     from perception.learning.dataset import Dataset
 
-    def recorded(name: str, times: tuple[int, int]) -> Dataset:
+    def recorded(name: str, times: tuple[int, int], cell: str = "sim") -> Dataset:
         tree = tmp_path_factory.mktemp(name) / f"{name}.yaml"
         tree.write_text((TREES / f"{name}.yaml").read_text().replace(f"times: {times[0]}", f"times: {times[1]}"))
-        return Dataset.load(record(tree, tree.with_suffix(".npz")))
+        return Dataset.load(record(tree, tree.with_suffix(".npz"), cell=cell))
 
     return recorded

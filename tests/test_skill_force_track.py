@@ -3,12 +3,15 @@ the simulated scene in every tool axis."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
-from assembly.testing import TreeHarness, touch
+from assembly.testing import TreeHarness, mock_cell, touch
 from behaviours.skill_kit.control import speed_ctrl
 from drivers.cell_builders import load_cell
+from perception.sensor_profile import default_profile
 
 GRIP = 10.0  # N squeeze on each pad
 
@@ -34,8 +37,26 @@ def test_force_track_moves_along_the_pull_and_stops_after_the_duration():
     assert h.run_until_done(100).name == "SUCCESS"
     twists = np.array([c.args[0] for c in h.arm.commands_named("speed_linear")])
     assert np.all(twists[:, 1:] == 0.0)  # tool x is base x at the home pose; nothing else moves
-    assert twists[:, 0].max() == pytest.approx(0.1 * (6 * 0.178 - 0.05) / 1.95, rel=0.05)  # SpeedCtrl
+    gain = default_profile().shear_px_per_n  # px per N of the sensor the cell has
+    assert twists[:, 0].max() == pytest.approx(0.1 * (6 * gain - 0.05) / 1.95, rel=0.05)  # SpeedCtrl
     assert h.arm.commands[-1].name == "stop"
+
+
+def top_speed(axis: str, newtons: float, cell=None) -> float:
+    h = TreeHarness.from_text("version: 1\nname: t\nroot: {skill: force_track, name: s, params: "
+                              "{duration: 1.0, smoothing: 1}}\n", cell=cell)
+    h.script(lambda tick, t: pulled(**{axis: newtons if tick >= 10 else 0.0}))
+    assert h.run_until_done(100).name == "SUCCESS"
+    return float(np.abs(np.array([c.args[0][:3] for c in h.arm.commands_named("speed_linear")])).max())
+
+
+def test_a_newton_moves_the_hand_as_fast_on_the_closing_axis_as_along_the_pads():
+    """normal_scale comes from the sensor profile (its shear/normal gain ratio), not a simulator constant."""
+    assert top_speed("y", 5.0) == pytest.approx(top_speed("x", 5.0), rel=0.1)
+    cell = mock_cell()
+    cell.sensor_profile = dataclasses.replace(default_profile(), normal_px_per_n=0.085)  # a cell whose sensor differs
+    # the fingertips still move 0.17 px/N (the scripted touch): weighted 2x, the push reads twice as large
+    assert top_speed("y", 2.0, cell) == pytest.approx(top_speed("y", 4.0), rel=0.1)
 
 
 def test_force_track_follows_a_push_on_the_closing_axis():

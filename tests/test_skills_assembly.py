@@ -91,7 +91,7 @@ def test_descend_fails_without_contact():
 
 def test_descend_halted_stops_the_arm():
     h = one_skill("descend_until_contact")
-    h.tick(10)
+    h.tick(25)  # past the 15 reference ticks at rest
     assert h.arm.is_moving()
     h.halt()
     assert not h.arm.is_moving()

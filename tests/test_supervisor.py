@@ -48,7 +48,8 @@ class Recorder:
         if self.hook is not None:
             self.hook(self)
         self.rows.append((self.cell.clock.now(), self.runner.tip.path,
-                          float(np.linalg.norm(self.cell.arm.tcp_wrench()[:3])), self.cell.arm.is_moving()))
+                          # the force the scene puts on the arm, not the TCP sensor's offset, noisy reading
+                          float(np.linalg.norm(self.cell.world.arm.tcp_wrench()[:3])), self.cell.arm.is_moving()))
         return states
 
     def freeze(self) -> None:

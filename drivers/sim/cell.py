@@ -12,15 +12,17 @@ import numpy as np
 
 from drivers.cell import Cell
 from drivers.cell_builders import CellRequest
-from drivers.cell_file import CellFileError, check_known, section
+from drivers.cell_file import CellFileError, check_known, config_from, section
 from drivers.clock import SimClock
 from drivers.safe_gripper import SafeGripper
 from drivers.safety import SafeArm, SafetyLimits
 from drivers.sim.devices.arm import KinematicArm
 from drivers.sim.devices.gripper import SimGripper
+from drivers.sim.models.force_sensor import ForceSensedArm, ForceSensorConfig
 from drivers.sim.scenes import build_world, world_settings
 
-FIELDS = {"kind", "name", "home", "safety", "supervision", "gripper", "sensor", "world", "perception", "pixel_workers"}
+FIELDS = {"kind", "name", "home", "safety", "supervision", "gripper", "sensor", "world", "perception", "pixel_workers",
+          "force_sensor"}
 PERCEPTION_MODES = ("signals", "pixels")
 
 
@@ -56,5 +58,9 @@ def build_sim_cell(path: Path, data: dict, request: CellRequest) -> Cell:
 
         sense = pixel_level_sense(world, sensors, clock, request.seed, workers=workers)
     closers = [sense.close] if mode == "pixels" else []  # pixel mode's worker processes
-    return Cell(data.get("name", "sim"), SafeArm(arm, limits, clock), SafeGripper(gripper), clock, sense, world=world,
-                closers=closers)
+    # The TCP force the skills and the safety layer read: the scene's force through a UR-class sensor.
+    ft = config_from(path, "force_sensor", ForceSensorConfig, section(path, data, "force_sensor"))
+    sensed = ForceSensedArm(arm, clock, ft, request.seed)
+    return Cell(data.get("name", "sim"), SafeArm(sensed, limits, clock), SafeGripper(gripper), clock, sense,
+                world=world, closers=closers, sensor_profile=sensors["left"].profile,
+                zero_force_sensor=sensed.zero_ft_sensor)

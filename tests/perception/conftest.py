@@ -11,6 +11,7 @@ from drivers.sim.models.fingervision_model import FingerContact, SensorModel
 from drivers.sim.models.synthetic_camera import Appearance, SyntheticFingerVision
 from perception.config import load_config
 from perception.fingervision import FingerVision
+from perception.sensor_profile import load_profile
 
 REAL_CLIP = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "fv_demo" / "cam1_0002.m4v"
 
@@ -19,7 +20,9 @@ class Scene:
     """A simulated sensor (contact model without noise) and its camera."""
 
     def __init__(self, seed: int = 3, noise: float = 4.0):
-        self.model = SensorModel("right", noise_px=0.0)
+        # the former simulated sensor: these scenarios are written in its pixels (loads of 40-75 N that
+        # move its markers a few px; the calibrated sensor moves them 5x more under normal load)
+        self.model = SensorModel("right", load_profile("simulated_2025"), noise_px=0.0)
         self.camera = SyntheticFingerVision(self.model.origin, self.model.marker_size, seed=seed)
         self.look = Appearance(noise=noise)
 

@@ -19,6 +19,7 @@ from assembly.run.session import Run, world_of
 from drivers.cell import Cell
 from drivers.cell_file import resolve_cell_path
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
+from perception.sensor_profile import DEFAULT_PROFILE, NUMBERS, load_profile
 from perception.state import FINGERS, TactileState
 
 
@@ -76,8 +77,11 @@ def _order(model_origin: np.ndarray, pipeline_origin: np.ndarray) -> np.ndarray:
 
 def record(tree: Path, seed: int = 0, max_time: float = 120.0) -> PixelRun:
     """Run `tree` in pixel mode on the simulated cell and record every tick beside its truth."""
-    sensor_cfg = yaml.safe_load(resolve_cell_path("sim").read_text()).get("sensor") or {}
-    models = {f: SensorModel(f, **{**sensor_cfg, "noise_px": 0.0, "pipeline_errors": False}) for f in FINGERS}
+    sensor_cfg = dict(yaml.safe_load(resolve_cell_path("sim").read_text()).get("sensor") or {})
+    profile = load_profile(sensor_cfg.pop("profile", DEFAULT_PROFILE))
+    numbers = {k: sensor_cfg.pop(k) for k in list(sensor_cfg) if k in NUMBERS}
+    profile = dataclasses.replace(profile, **numbers)
+    models = {f: SensorModel(f, profile, **{**sensor_cfg, "noise_px": 0.0, "pipeline_errors": False}) for f in FINGERS}
     ticks: dict[str, list[Tick]] = {f: [] for f in FINGERS}
     orders: dict[str, np.ndarray] = {}
 

@@ -6,7 +6,8 @@ Measured in pixel mode against the scene's truth by `assembly/bench/perception/e
 in_hand_rot, object_track and the first assembly element, both fingers, 7354 ticks; the defaults
 below are its fitted model, `pipeline_errors.json` in its output). Re-run it after a change to
 `perception/` and copy the new figures here. The model:
-- markers: first-order lag `lag_alpha` (the Kalman filter), white noise `noise_px`; the losses
+- markers: first-order lag `lag_alpha` (the Kalman filter), noise `noise_px` (AR(1) with
+  `noise_persistence`; white by default); the losses
   are concentrated on a few markers (texture or the object's edge over them): a share
   `lossy_share` of them, fixed per sensor, is lost on a tick with probability `lossy_rate` (not
   valid; it keeps its last estimate, as in the filter);
@@ -41,7 +42,8 @@ SLIP_PX_PER_UNIT = 4.0  # rendered object texture speed (px/frame) per unit of t
 class PipelineErrors:
     """Parameters of the error model (defaults: measured, see the module docstring)."""
 
-    noise_px: float = 0.038  # px
+    noise_px: float = 0.038  # px (the cell's sensor profile sets it: `SensorProfile.noise_sigma_px`)
+    noise_persistence: float = 0.0  # lag-1 autocorrelation of the marker noise (AR(1); 0: white)
     lag_alpha: float = 1.0  # measured 0.975: the gated Kalman filter restarts on a real move (no lag modelled)
     lossy_share: float = 0.105  # share of markers the tracker often loses (texture or the object's edge on them)
     lossy_rate: float = 0.37  # how often one of those is lost on a tick
@@ -108,6 +110,7 @@ class ErrorModel:
         self._contact = None
         self._slip: deque[float] = deque([0.0] * errors.slip_delay, maxlen=errors.slip_delay + 1)
         self._tick = BLOCK
+        self._last_noise: np.ndarray | None = None  # the last tick's marker noise (persistent noise only)
 
     def apply(self, contact, exact: np.ndarray):
         """(positions, sizes, valid, force, torque, object, slip) the pipeline would report for this
@@ -141,6 +144,14 @@ class ErrorModel:
         uniform = self._rng.random((BLOCK, k + 2))
         self._noise = e.noise_px * normal[:, :3 * n].reshape(BLOCK, n, 3)  # x, y, size (half as much)
         self._noise[:, :, 2] *= 0.5
+        rho = e.noise_persistence
+        if rho:  # AR(1) across ticks, carried over from the last block; the same std as white noise
+            keep, last = math.sqrt(1.0 - rho * rho), self._last_noise
+            for t in range(BLOCK):
+                if last is not None:
+                    self._noise[t] = rho * last + keep * self._noise[t]
+                last = self._noise[t]
+            self._last_noise = last
         lost = np.zeros((BLOCK, n), bool)
         lost[:, self._lossy] = uniform[:, :k] < e.lossy_rate
         self._tracked, self._any_lost = ~lost, lost.any(axis=1).tolist()

@@ -31,6 +31,7 @@ from drivers.sim.models.marker_patches import MarkerPainter
 from drivers.sim.models.noise_bank import NoiseBank
 from drivers.sim.models.object_layer import ObjectLayer, ObjectPatch, Placement, object_info_from_mask
 from drivers.sim.models.pipeline_error_model import SLIP_PX_PER_UNIT
+from drivers.sim.models.skin import Skin
 from perception.state import FINGERS, ObjectInfo, TactileState
 
 HOUSING_GREY = 50.0
@@ -362,13 +363,14 @@ def pixel_level_sense(world: World, sensors: Mapping[str, SensorModel], clock: S
     shift = {finger: 0.0 for finger in FINGERS}
     parallel = parallel_by_default() if workers is None else workers
     fingers = FingerWorkers(PixelFinger, rigs, WORKER_FINGERS if parallel else ())
+    skins = {finger: Skin(sensors[finger].profile) for finger in FINGERS}  # as in signals mode
 
     def sense() -> dict[str, TactileState]:
         contacts = world.contacts()
         now = clock.now()
         frames = {}
         for finger in FINGERS:
-            contact = contacts[finger]
+            contact = skins[finger].feel(contacts[finger], now)
             position, size = fields[finger](contact)
             shift[finger] += SLIP_PX_PER_UNIT * contact.slip
             frames[finger] = (position, size, contact.obj, shift[finger], now)

@@ -4,14 +4,17 @@ contact model."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from pathlib import Path
 
 from drivers.cell_file import CellFileError, section
 from drivers.protocols import Clock, PerceptionSource, SceneArm, SceneGripper, World
 from drivers.sim.models.fingervision_model import SensorModel
+from drivers.sim.models.skin import Skin
 from drivers.sim.scenes import assembly, followme, handover, hold, press, stick, stir
 from fvfiles.errors import did_you_mean
+from perception.sensor_profile import DEFAULT_PROFILE, NUMBERS, SensorProfile, SensorProfileError, load_profile
 from perception.state import FINGERS
 
 # name -> builder(arm, gripper, scene_args, world settings, seed) -> World
@@ -30,7 +33,8 @@ SCENES: dict[str, Callable[[SceneArm, SceneGripper, dict, dict, int], World]] = 
 # scene name -> the package providing it (plug-in packages add theirs through `assembly.language.plugins`)
 SCENE_PACKAGES: dict[str, str] = dict.fromkeys(SCENES, "fvtree")
 
-SENSOR_FIELDS = set(SensorModel.__dataclass_fields__) - {"finger", "seed"}
+# `profile`: a profile's name or path; any of the profile's numbers overrides the profile's value
+SENSOR_FIELDS = set(SensorModel.__dataclass_fields__) - {"finger", "seed"} | set(NUMBERS)
 WORLD_FIELDS = set(assembly.SceneConfig.__dataclass_fields__) - {"seed"}
 
 
@@ -40,21 +44,43 @@ def world_settings(path: Path, data: dict, where: str = "") -> tuple[dict, dict]
             section(path, data, "world", known=WORLD_FIELDS, where=where))
 
 
+def sensor_profile(path: Path, name: object) -> SensorProfile:
+    """The sensor profile a cell file's `sensor.profile` names (a packaged profile or a path relative
+    to the cell file), or CellFileError naming the field."""
+    if not isinstance(name, str):
+        raise CellFileError(path, "sensor.profile", f"must be a profile's name or path, got {name!r}")
+    relative = Path(path).parent / name
+    try:
+        return load_profile(str(relative) if relative.suffix in (".yaml", ".yml") and relative.exists() else name)
+    except SensorProfileError as exc:
+        raise CellFileError(path, "sensor.profile", str(exc)) from None
+
+
 def build_world(path: Path, settings: tuple[dict, dict], arm: SceneArm, gripper: SceneGripper, clock: Clock,
                 scene: str, scene_args: dict, seed: int) -> tuple[World, dict[str, SensorModel], PerceptionSource]:
     """The scene a tree needs around `arm` and `gripper`, with the (sensor, world) `settings`:
     returns the world, its two FingerVision sensor models and the signal-level perception source
-    reading them."""
+    reading them through each fingertip's viscoelastic skin (`drivers.sim.models.skin`)."""
     sensor_cfg, world_cfg = settings
+    sensor_cfg = dict(sensor_cfg)
+    profile = sensor_profile(path, sensor_cfg.pop("profile", DEFAULT_PROFILE))
+    changed = {key: sensor_cfg.pop(key) for key in NUMBERS if key in sensor_cfg}
+    if changed:
+        try:
+            profile = dataclasses.replace(profile, **changed)
+        except (SensorProfileError, TypeError) as exc:
+            raise CellFileError(path, f"sensor.{next(iter(changed))}", str(exc)) from None
     if scene not in SCENES:
         raise CellFileError(path, "scene", f"no simulated scene {scene!r}",
                             did_you_mean(scene, SCENES) or f"known: {', '.join(sorted(SCENES))}")
     world = SCENES[scene](arm, gripper, scene_args, world_cfg, seed)
-    sensors = {f: SensorModel(f, seed=seed * 2 + i, **sensor_cfg) for i, f in enumerate(FINGERS)}
+    sensors = {f: SensorModel(f, profile, seed=seed * 2 + i, **sensor_cfg) for i, f in enumerate(FINGERS)}
+
+    skins = {f: Skin(profile) for f in FINGERS}
 
     def sense():
         contacts = world.contacts()
         now = clock.now()
-        return {f: sensors[f].state(contacts[f], now) for f in FINGERS}
+        return {f: sensors[f].state(skins[f].feel(contacts[f], now), now) for f in FINGERS}
 
     return world, sensors, sense
