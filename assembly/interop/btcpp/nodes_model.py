@@ -74,7 +74,10 @@ def skill_model(name: str) -> ET.Element:
 
 
 def _port(node: ET.Element, name: str, p: Param) -> None:
-    attrs = {"name": name, "type": PORT_TYPES[p.type]}
+    # An optional number without a default (e.g. taken from the cell's sensor profile when left out)
+    # is declared as text: "" (not given) is no valid double or int for BT.CPP's XSD.
+    unset_number = p.default is None and not p.required and p.type in ("float", "int")
+    attrs = {"name": name, "type": "std::string" if unset_number else PORT_TYPES[p.type]}
     if not p.required:
         attrs["default"] = NOT_GIVEN if p.default is None else to_port(p.default)
     ET.SubElement(node, "input_port", attrs).text = _port_text(p) + (" (empty: not given)" if p.default is None
