@@ -24,6 +24,7 @@ import pytest
 from compas.datastructures import Graph
 from compas_eve import Subscriber, Topic
 from mqtt_broker import Broker, free_port, mosquitto, mqtt_broker_fixture, secure_broker_fixture, wait_for  # noqa: F401
+from test_coordinator import ManualClock
 
 from assembly.cli import main
 from assembly.design.link import signing
@@ -37,19 +38,6 @@ ROOT = Path(__file__).resolve().parents[1]
 SIX_BAYS = ROOT / "trees" / "design" / "six_bays.json"
 CELL = Path(__file__).with_name("coordinated_cell.py")
 TOPICS = "fvtree/design/six_bays"
-
-
-class ManualClock:
-    """The coordinator's clock (seconds), moved only by `advance`."""
-
-    def __init__(self):
-        self.now = 0.0
-
-    def __call__(self) -> float:
-        return self.now
-
-    def advance(self, seconds: float) -> None:
-        self.now += seconds
 
 
 def recorder(url: str, name: str, security: LinkSecurity | None = None, *topics: str) -> tuple[LinkTransport, dict]:
