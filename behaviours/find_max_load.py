@@ -80,7 +80,7 @@ class FindMaxLoad(ProgramSkill):
                                 "(0: no check; cells without a force sensor read 0 N)", 100.0, "N", min=0.0),
     }
     READS = (keys.ELEMENT, keys.PLATES, keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT,
-             keys.ROBOT_MOVING, keys.ROBOT_WRENCH, keys.GRIPPER_WIDTH, keys.GRIPPER_FAULT, keys.GRIPPER_MOVING)
+             keys.ROBOT_MOVING, keys.ROBOT_WRENCH, keys.GRIPPER_WIDTH, keys.GRIPPER_OBJECT, keys.GRIPPER_FAULT, keys.GRIPPER_MOVING)
     WRITES = (keys.LOAD_PROFILE, keys.LOAD_SCAN, keys.BEST_POSE, keys.MEASURED_LOAD)
 
     @classmethod
@@ -152,6 +152,7 @@ class FindMaxLoad(ProgramSkill):
         recent: deque[float] = deque(maxlen=self.p.slip_ticks)
         slipped = [False]
         last: list[tuple[TactileState, TactileState] | None] = [None]  # the fingertips of the tick before
+        held = self.gripper_object()  # the fingers were stopped on the element: losing that flag is losing it
         # Written once; the lists grow as the scan goes, so a live view can draw the profile growing.
         self.write(keys.LOAD_SCAN, {"plate": element["plate"], "position": positions, "load": loads})
 
@@ -168,6 +169,9 @@ class FindMaxLoad(ProgramSkill):
             self.feedback_message = f"scan at {positions[-1]:.3f} m, load {loads[-1]:.2f}"
             if slipped[0]:
                 return f"the element slipped in the grip at {positions[-1]:.3f} m along the plate"
+            if held and not self.gripper_object():
+                return (f"the element was lost from the grip at {positions[-1]:.3f} m along the plate (the "
+                        "gripper no longer reports an object between its fingers)")
             felt = magnitude(self.read(keys.ROBOT_WRENCH)[:3])
             if 0.0 < self.p.max_scan_force < felt:
                 return (f"the arm felt {felt:.1f} N at {positions[-1]:.3f} m along the plate, over "

@@ -490,3 +490,29 @@ def test_a_scan_shorter_than_the_smoothing_window_still_gives_a_peak():
     x = np.linspace(0.0, 0.02, 23)  # 23 samples over 2 cm, smoothing over 3 cm
     peak = locate_peak(x, 1.0 - (x - 0.01) ** 2, smooth_window=0.03, fit_half_width=0.08)
     assert peak.smoothed.shape == x.shape and 0.0 <= peak.position <= 0.02
+
+
+def test_an_element_lost_during_the_load_scan_is_reported_as_lost():
+    """Before: scanned on for 0.8 m with empty fingers and reported 'no load found ... the element
+    never reached it'. The gripper's object flag ends the scan at once, saying the element was lost."""
+    import copy
+
+    from assembly.testing.skill_checks import ELEMENT, PLATES, felt, tree_text
+    from behaviours.skill_kit import keys
+
+    cell = mock_cell(10, gripper_width=0.06, object_width=0.04)
+    h = TreeHarness.from_text(tree_text("find_max_load", {}), cell=cell, name="lost.yaml")
+    h.set(keys.ELEMENT, copy.deepcopy(ELEMENT))
+    h.set(keys.PLATES, copy.deepcopy(PLATES))
+    h.script(lambda tick, t: felt("held"))
+    h.gripper.move(0.0, 0.05, 20.0)  # grasp the element (the skill starts with it in hand)
+    for _ in range(20):
+        h.cell.arm.kick()  # what a tick does for the watchdog
+        h.cell.step()
+    assert h.gripper.object_detected()
+    while not h.feedback("main/s").startswith("scan at"):
+        assert h.tick().name == "RUNNING", h.feedback("main/s")
+    h.gripper.inner.object_width = None  # it falls out of the fingers
+    assert h.run_until_done(600).name == "FAILURE"
+    said = h.feedback("main/s")
+    assert "was lost from the grip" in said and "never reached" not in said, said

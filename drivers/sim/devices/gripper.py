@@ -48,6 +48,8 @@ class SimGripper:
         return self.gel_stiffness * max(0.0, self.object_width - self._width)
 
     def step(self, dt: float) -> None:
+        if self._blocked and self.object_width is None:
+            self._blocked = False  # the object fell out: the fingers close on towards their target, as a Robotiq's do
         if not self.is_moving():
             return
         delta = self._target - self._width
