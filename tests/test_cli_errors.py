@@ -82,7 +82,8 @@ def test_run(tree_file, tmp_path, capsys):
     assert "no such cell file" in err
     err = fails_with(["run", str(TREES / "assembly.yaml"), "--resume", str(tmp_path), *runs], capsys)
     assert f"{tmp_path}: not a run directory" in err
-    for bad in (["--max-time", "0"], ["--seed", "-1"], ["--estop-at", "soon"]):
+    for bad in (["--max-time", "0"], ["--max-time", "nan"], ["--max-time", "inf"], ["--seed", "-1"],
+                ["--estop-at", "soon"]):  # nan was taken as "no limit"
         assert "fvtree run: error: argument" in usage_error(["run", str(TREES / "hold.yaml"), *bad], capsys)
 
 

@@ -105,6 +105,15 @@ def test_an_include_outside_the_trees_folder_is_refused_unread(tmp_path, outside
     assert "--allow-include DIR" in text
 
 
+def test_an_include_through_a_symbolic_link_loop_is_a_located_error(tmp_path, capsys):
+    """Before: exit 1, 'RuntimeError: Symlink loop from ...' with no file and line."""
+    tree = tree_including(tmp_path, "loop.yaml")
+    (tree.parent / "loop.yaml").symlink_to(tree.parent / "pool.yaml")
+    (tree.parent / "pool.yaml").symlink_to(tree.parent / "loop.yaml")
+    code, text = fvtree(capsys, "validate", str(tree))
+    assert code == 2 and f"{tree}:3: include 'loop.yaml': cannot be resolved" in text, text
+
+
 def test_an_allowed_folder_may_be_included_from(tmp_path, outside, capsys, monkeypatch):
     tree = tree_including(tmp_path, str(outside / "lift.yaml"))
     tree.write_text(tree.read_text().replace(NODE, "root: {subtree: lift, name: go}\n"))

@@ -4,6 +4,7 @@ and the options several commands share, so each is checked and worded the same e
 from __future__ import annotations
 
 import argparse
+import math
 from collections.abc import Callable
 from pathlib import Path
 
@@ -11,13 +12,15 @@ Subparsers = argparse._SubParsersAction  # what `add_subparsers()` returns; each
 
 
 def _number(convert: Callable[[str], float], minimum: float, strict: bool) -> Callable[[str], float]:
-    """argparse type: a number of at least `minimum` (above it when `strict`)."""
+    """argparse type: a finite number of at least `minimum` (above it when `strict`)."""
 
     def parse(text: str) -> float:
         try:
             value = convert(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"expected {convert.__name__}, got {text!r}") from None
+        if not math.isfinite(value):
+            raise argparse.ArgumentTypeError(f"must be a finite number, got {text}")
         if value < minimum or (strict and value == minimum):
             raise argparse.ArgumentTypeError(f"must be {'>' if strict else '>='} {minimum}, got {text}")
         return value

@@ -117,7 +117,11 @@ def _collect_subtrees(doc: Located, file: str, out: dict[str, SubtreeDef], error
     includes: LocatedList = (doc["include"] or LocatedList()) if _fits(doc, "include") else LocatedList()
     for i, rel in enumerate(includes):
         line = includes.item_lines[i]
-        target = str((base / rel).resolve())
+        try:
+            target = str((base / rel).resolve())
+        except (RuntimeError, OSError) as exc:  # a symbolic-link loop (RuntimeError before Python 3.13)
+            errors.append(TreeError(f"include {rel!r}: cannot be resolved ({exc})", file, line))
+            continue
         if not any(Path(target).is_relative_to(root) for root in roots):
             errors.append(TreeError(f"include {rel!r}: outside the tree's folder {roots[0]}, so it is not read",
                                     file, line, hint="allow its folder with `fvtree --allow-include DIR ...` "
