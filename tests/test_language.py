@@ -62,6 +62,14 @@ def test_unknown_skill_with_hint_and_path(tree_file):
     assert ":7: root/up: unknown skill 'mvoe_to'" in msg and "did you mean 'move_to'" in msg
 
 
+@pytest.mark.parametrize("look_alike", ["gr\u0430sp", "grasp\u200b"])  # a Cyrillic a; a zero-width space
+def test_a_node_name_that_prints_like_another_is_refused(tree_file, look_alike):
+    """Before: `grasp` beside `grasp\\u200b` were two names that print identically."""
+    [msg] = errors_of(GOOD.replace("name: up", f'name: "{look_alike}"'), tree_file)
+    escaped = look_alike.encode("ascii", "backslashreplace").decode()
+    assert f":7: root: node name '{escaped}' holds a character that is not printable ASCII" in msg, msg
+
+
 def test_unknown_param(tree_file):
     [msg] = errors_of(GOOD.replace("offset:", "ofset:"), tree_file)
     assert "root/up: unknown param 'ofset' for skill 'move_to'" in msg and "did you mean 'offset'" in msg

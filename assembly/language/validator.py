@@ -180,6 +180,13 @@ class Validator:
             self.error(node, f"node name must be a non-empty string without '/', got {short(name)}",
                        parent or "/", name_of_kind)
             return None
+        if not (name.isascii() and name.isprintable()):
+            escaped = name.encode("ascii", "backslashreplace").decode()
+            self.error(node, f"node name '{escaped}' holds a character that is not printable ASCII",
+                       parent or "/", "name" if "name" in node else name_of_kind,
+                       "node names are printable ASCII, so that two names that print alike are one name "
+                       "(a Cyrillic a, a zero-width space)")
+            return None
         path = f"{parent}/{name}" if parent else name
         allowed = {*kind.fields, *COMMON_FIELDS}
         for key in node:
