@@ -16,7 +16,6 @@ from behaviours.skill_kit.geometry import rotation
 from behaviours.skill_kit.model_files import UsesModel
 from behaviours.skill_kit.registry import register
 from perception.learning.features import tick_features
-from perception.learning.force import predict_force
 
 
 @register
@@ -40,6 +39,8 @@ class PressWithForce(UsesModel, ProgramSkill):
     WRITES = (keys.PRESS_FORCE,)
 
     def program(self):
+        from perception.learning.force import predict_force  # scikit-learn: loaded by a run, not by `fvtree validate`
+
         if self.model is None:
             return self.fail(self.model_error)
         model = self.model

@@ -30,6 +30,21 @@ def test_guard_rechecks_every_tick_and_halts_the_child():
     h.tick()
     h.assert_status({"while_clear": "FAILURE", "while_clear/go": "INVALID"})
     assert h.arm.commands[-1].name == "stop"
+    # the failure says why: the key, the value it read and the comparison that did not hold
+    assert h.feedback("while_clear") == "guard condition failed: /task/estop = True, not eq False"
+
+
+def test_a_failed_condition_says_which_key_its_value_and_the_comparison():
+    h = harness("  sequence: s\n  memory: true\n  children:\n"
+                "    - {condition: wide, key: /gripper/width, op: gt, value: 0.5}\n")
+    h.tick()
+    h.assert_status({"s/wide": "FAILURE"})
+    assert h.feedback("s/wide").startswith("/gripper/width = ")
+    assert h.feedback("s/wide").endswith(", not gt 0.5")
+    h = harness("  sequence: s\n  memory: true\n  children:\n"
+                "    - {condition: pushed, key: \"/fv/left.force[1]\", op: lt, value: -1.0}\n")
+    h.tick()
+    assert h.feedback("s/pushed") == "/fv/left.force[1] = 0.0, not lt -1.0"
 
 
 def test_status_map_and_inverter():

@@ -73,6 +73,9 @@ def add_skills(found: Iterable[EntryPoint]) -> list[str]:
 
 def add_scenes(found: Iterable[EntryPoint]) -> list[str]:
     """Add the scenes the entry points name to SCENES; returns their names."""
+    found = list(found)
+    if not found:  # the simulators load only when a plug-in adds a scene (not for `fvtree validate`)
+        return []
     from drivers.sim.scenes import SCENE_PACKAGES, SCENES  # the simulators are large: imported when needed
 
     names = []

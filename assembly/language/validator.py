@@ -16,6 +16,7 @@ from typing import Any
 from py_trees.behaviour import Behaviour
 
 from assembly.errors import TreeError
+from assembly.language.blackboard import key_problem
 from assembly.nodes.conditions import ALL_OPS, split_key
 from behaviours.skill_kit import keys as bbkeys
 from behaviours.skill_kit.base import REQUIRED, Param
@@ -268,10 +269,12 @@ class Validator:
         key, op = self.substitute(node.get("key"), scope, spec, node), node.get("op")
         value = self.substitute(node.get("value"), scope, spec, node)
         try:
-            base, _ = split_key(str(key))
+            base, parts = split_key(str(key))
             if base not in self._keys:
                 self.error(node, f"unknown blackboard key {base!r}", spec.path, "key",
                            did_you_mean(base, self._keys))
+            elif problem := key_problem(base, parts):
+                self.error(node, problem[0], spec.path, "key", problem[1])
         except ValueError as exc:
             self.error(node, str(exc), spec.path, "key")
         if op not in ALL_OPS:

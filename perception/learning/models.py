@@ -17,17 +17,17 @@ import json
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from sklearn.kernel_ridge import KernelRidge
-from sklearn.neural_network import MLPClassifier
-from sklearn.pipeline import Pipeline, make_pipeline
-from sklearn.preprocessing import LabelBinarizer, StandardScaler
 
 from fvfiles.errors import FvtreeError
 from fvfiles.npz_files import npz_problem
 from perception.learning.features import check_spec, feature_spec
+
+if TYPE_CHECKING:  # scikit-learn loads with the first model (seconds): `fvtree validate` reads no model
+    from sklearn.pipeline import Pipeline
+    from sklearn.preprocessing import StandardScaler
 
 FORMAT = "fvtree-model"
 VERSION = 2
@@ -45,6 +45,8 @@ def _scaler_arrays(scaler: StandardScaler) -> dict[str, np.ndarray]:
 
 
 def _scaler(arrays: dict[str, np.ndarray], n: int) -> StandardScaler:
+    from sklearn.preprocessing import StandardScaler
+
     scaler = StandardScaler()
     scaler.mean_, scaler.scale_, scaler.var_ = (arrays[k] for k in ("scaler_mean", "scaler_scale", "scaler_var"))
     scaler.n_features_in_, scaler.n_samples_seen_ = n, 0
@@ -53,6 +55,9 @@ def _scaler(arrays: dict[str, np.ndarray], n: int) -> StandardScaler:
 
 def export_estimator(estimator: Pipeline) -> tuple[dict, dict[str, np.ndarray]]:
     """(description, arrays) of a fitted scaler + kernel ridge or scaler + MLP pipeline."""
+    from sklearn.kernel_ridge import KernelRidge
+    from sklearn.neural_network import MLPClassifier
+
     scaler, model = estimator[0], estimator[-1]
     arrays = _scaler_arrays(scaler)
     if isinstance(model, KernelRidge) and model.kernel == "rbf":
@@ -69,6 +74,11 @@ def export_estimator(estimator: Pipeline) -> tuple[dict, dict[str, np.ndarray]]:
 
 def _rebuild(description: Any, arrays: dict[str, np.ndarray], path: Path) -> Pipeline:
     """The scikit-learn pipeline of a description and its arrays, every shape checked."""
+    from sklearn.kernel_ridge import KernelRidge
+    from sklearn.neural_network import MLPClassifier
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import LabelBinarizer
+
     if not isinstance(description, dict):
         raise ModelError(f"{path}: the header does not describe an estimator; retrain it")
     kind = description.get("type")
