@@ -125,7 +125,7 @@ def key_problem(base: str, parts: list[str | int]) -> tuple[str, str | None] | N
             else:
                 if not fields:
                     return f"{where} is {_kind(schema)}: it has no field {part!r}", None
-                return (f"{where} (a {_kind(schema)}) has no field {part!r}",
+                return (f"{where} ({_kind(schema)}) has no field {part!r}",
                         did_you_mean(part, fields) or f"its fields: {', '.join(fields)}")
             where = f"{where}.{part}"
         else:
