@@ -168,14 +168,3 @@ def warm_up() -> None:
 def _scaled(values: np.ndarray, scale: np.ndarray | float) -> np.ndarray:
     """`values * scale`, skipping the (exact, but not free) product with the default scale 1."""
     return values if isinstance(scale, float) and scale == 1.0 else values * scale
-
-
-def __getattr__(name: str):
-    """`mean_wrench`, the compiled kernel, loaded (with numba) on first use: importing this module
-    to compute marker forces (the skills, `fvtree validate`) does not load numba."""
-    if name == "mean_wrench":
-        from perception.wrench_kernel import mean_wrench
-
-        return mean_wrench
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
