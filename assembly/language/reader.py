@@ -14,8 +14,9 @@ from assembly.language.dataflow import dataflow_errors
 from assembly.language.fields import CELL_FIELDS, TOP_FIELDS, Field, required
 from assembly.language.kinds import NODE_KINDS
 from assembly.language.plugins import load_plugins
-from assembly.language.validator import NodeSpec, Scope, SubtreeDef, Validator, subtree_params
+from assembly.language.validator import CellRanges, NodeSpec, Scope, SubtreeDef, Validator, subtree_params
 from behaviours.skill_kit.keys import PERCEPTION_KEYS
+from drivers.device_ranges import device_ranges
 from fvfiles.errors import FvtreeError, did_you_mean, did_you_mean_field, field_name
 from fvfiles.schema_check import schema_problem
 from fvfiles.yaml_source import Located, LocatedList, load_file, load_text
@@ -186,10 +187,11 @@ def _design(doc: Located, file: str, errors: list[TreeError]) -> DesignModel | N
 
 
 def load_tree(path: str | Path | None = None, text: str | None = None, name: str = "<tree>",
-              dataflow: bool = True) -> TreeDocument:
+              dataflow: bool = True, cell: str | None = None) -> TreeDocument:
     """Parse and validate a tree file (or `text`); raises TreeErrors listing every problem.
     `dataflow` also refuses a node that reads a blackboard key nothing ticking before it writes
-    (off for tests that put the keys on the blackboard by hand)."""
+    (off for tests that put the keys on the blackboard by hand). `cell` (a cell file or packaged
+    cell's name) also checks the params bound to a device range against that cell's devices."""
     load_plugins()
     file = str(path) if path is not None else name
     try:
@@ -206,7 +208,8 @@ def load_tree(path: str | Path | None = None, text: str | None = None, name: str
     root = None
     if "root" in doc:
         validator = Validator(NODE_KINDS, subtrees, has_design="design" in doc,
-                              element_ids=None if design is None else design.elements())
+                              element_ids=None if design is None else design.elements(),
+                              cell=None if cell is None else CellRanges(cell, device_ranges(cell)))
         root = validator.node(doc["root"], "", Scope(), (file, doc.line_of("root")))
         errors.extend(validator.errors)
         if dataflow and not validator.errors and root is not None:

@@ -19,8 +19,9 @@ from assembly.errors import TreeError
 from assembly.language.blackboard import key_problem
 from assembly.nodes.conditions import ALL_OPS, split_key
 from behaviours.skill_kit import keys as bbkeys
-from behaviours.skill_kit.base import REQUIRED, Param
+from behaviours.skill_kit.base import DEVICE_RANGES, REQUIRED, Param
 from behaviours.skill_kit.registry import SKILLS
+from drivers.device_ranges import DeviceRange
 from fvfiles.errors import did_you_mean
 from fvfiles.yaml_source import Located, LocatedList
 
@@ -55,6 +56,14 @@ class SubtreeDef:
     root: Located
     file: str
     line: int
+
+
+@dataclass(frozen=True)
+class CellRanges:
+    """The cell a tree is validated for: its name and its devices' ranges (`drivers.device_ranges`)."""
+
+    name: str
+    ranges: Mapping[str, DeviceRange]
 
 
 @dataclass(frozen=True)
@@ -136,8 +145,9 @@ class Validator:
     """
 
     def __init__(self, kinds: Mapping[str, NodeKind], subtrees: dict[str, SubtreeDef], has_design: bool,
-                 element_ids: Iterable[str] | None = None):
+                 element_ids: Iterable[str] | None = None, cell: CellRanges | None = None):
         self.kinds = kinds
+        self.cell = cell  # the device ranges skill params are checked against (None: not checked)
         self.subtrees = subtrees
         self.has_design = has_design
         self.element_ids = None if element_ids is None else frozenset(element_ids)  # None: not known
@@ -285,6 +295,23 @@ class Validator:
         if not finite(value):
             self.error(node, f"'value' must hold finite numbers only, got {short(value)}", spec.path, "value")
         return {"key": key, "op": op, "value": value}
+
+    def device_ranges(self, spec: NodeSpec, node: Located, declared: Mapping[str, Param], values: dict) -> None:
+        """Each param bound to a device range (`Param.device`) within the cell's range, at its own line."""
+        if self.cell is None:
+            return
+        given = node.get("params")
+        for key, param in declared.items():
+            value, limit = values.get(key), self.cell.ranges.get(param.device)
+            if limit is None or isinstance(value, bool) or not isinstance(value, (int, float)) or limit.contains(value):
+                continue
+            where = given if isinstance(given, Located) and key in given else node
+            what, consequence = DEVICE_RANGES[param.device].rstrip(")").split(" (", 1)
+            self.error(where, f"param {key!r} = {value:g} {param.unit} is outside the {what} range of cell "
+                       f"{self.cell.name}, [{limit.low:g}, {limit.high:g}] {limit.unit}, from {limit.source}",
+                       spec.path, key if where is given else "params",
+                       f"{consequence}; keep it within {limit.high:g} {limit.unit}, or validate for the cell that "
+                       "runs the tree (--cell CELL)")
 
     def params(self, spec: NodeSpec, node: Located, scope: Scope) -> dict:
         """The node's `params` mapping with `$params` filled in (unchecked: the kind checks it)."""
