@@ -186,6 +186,20 @@ def _design(doc: Located, file: str, errors: list[TreeError]) -> DesignModel | N
         return None
 
 
+def _scene_file(design: DesignModel, errors: list[TreeError]) -> None:
+    """The scene file next to the design (`<design>.scene.yaml`: the plates' loads in simulation),
+    checked against the design's plates now rather than when the simulated scene is built."""
+    if design.path is None:
+        return
+    from drivers.sim.scenes.scene_file import plate_loads, scene_file_of
+
+    spans = {pid: float(plate["span"]) for pid, plate in design.plates().items()}
+    try:
+        plate_loads(scene_file_of(design.path), spans)
+    except FvtreeError as exc:
+        errors.append(TreeError(f"scene file: {exc.message}", exc.file, exc.line, exc.field, exc.hint))
+
+
 def load_tree(path: str | Path | None = None, text: str | None = None, name: str = "<tree>",
               dataflow: bool = True, cell: str | None = None) -> TreeDocument:
     """Parse and validate a tree file (or `text`); raises TreeErrors listing every problem.
@@ -203,6 +217,8 @@ def load_tree(path: str | Path | None = None, text: str | None = None, name: str
         raise TreeErrors(errors)
     tick_hz, scene = _cell_settings(doc, file, errors)
     design = _design(doc, file, errors)
+    if design is not None:
+        _scene_file(design, errors)
     subtrees: dict[str, SubtreeDef] = {}
     _collect_subtrees(doc, file, subtrees, errors, (str(Path(file).resolve()),), include_roots(file))
     root = None
