@@ -154,6 +154,7 @@ def _skill(validator, spec, node, scope) -> None:
                         did_you_mean(key, cls.PARAMS) or f"known: {', '.join(cls.PARAMS) or 'none'}")
     if unknown:
         return
+    validator.units(spec, node, scope, cls.PARAMS)
     try:
         spec.args["params"] = check_model(cls, cls.resolve_params(params), params, spec.file)
         validator.device_ranges(spec, node, cls.PARAMS, spec.args["params"])
@@ -178,6 +179,7 @@ def _subtree(validator, spec, node, scope) -> None:
     given = validator.params(spec, node, scope)
     values = {}
     before = len(validator.errors)
+    validator.units(spec, node, scope, definition.params)
     for key in given:
         if key not in definition.params:
             validator.error(node, f"unknown param {key!r} for subtree {ref!r}", spec.path, "params",

@@ -25,6 +25,11 @@ from drivers.device_ranges import DeviceRange
 from fvfiles.errors import did_you_mean
 from fvfiles.yaml_source import Located, LocatedList
 
+# Units a subtree param may be declared in where a param takes another: the factor to the other's
+# (for the hint of a mismatch; values are never converted).
+UNIT_FACTORS = {("ms", "s"): 1e-3, ("s", "ms"): 1e3, ("mm", "m"): 1e-3, ("m", "mm"): 1e3, ("cm", "m"): 1e-2,
+                ("mm/s", "m/s"): 1e-3, ("m/s", "mm/s"): 1e3, ("deg", "rad"): math.pi / 180,
+                ("rad", "deg"): 180 / math.pi, ("deg/s", "rad/s"): math.pi / 180, ("kN", "N"): 1e3}
 MAX_NODES = 10_000  # nodes of a tree once its subtrees are expanded (subtrees can multiply them)
 MAX_DEPTH = 200  # levels of nodes
 PARAM_TYPES = ("float", "int", "bool", "str", "vector")
@@ -295,6 +300,26 @@ class Validator:
         if not finite(value):
             self.error(node, f"'value' must hold finite numbers only, got {short(value)}", spec.path, "value")
         return {"key": key, "op": op, "value": value}
+
+    def units(self, spec: NodeSpec, node: Located, scope: Scope, declared: Mapping[str, Param]) -> None:
+        """Each `$param` given to a param declared with a unit carries the same unit: a subtree param
+        declared `unit: ms` passed into a param in s is refused, never converted (the value would
+        mean another thing in each place), with the value in the unit the param takes."""
+        given, outer = node.get("params"), self.subtrees.get(scope.subtrees[-1]) if scope.subtrees else None
+        if not isinstance(given, Located) or outer is None:
+            return
+        for key, value in given.items():
+            name = value[1:] if isinstance(value, str) and value.startswith("$") else None
+            source, target = outer.params.get(name) if name else None, declared.get(key)
+            if source is None or target is None or not source.unit or not target.unit or source.unit == target.unit:
+                continue
+            hint = f"declare ${name} with unit {target.unit!r}"
+            factor = UNIT_FACTORS.get((source.unit, target.unit))
+            number = scope.params.get(name)
+            if factor is not None and isinstance(number, (int, float)) and not isinstance(number, bool):
+                hint += f" and give it {number * factor:g} ({number:g} {source.unit} = {number * factor:g} {target.unit})"
+            self.error(given, f"param {key!r} takes {target.unit}, but ${name} is declared in {source.unit} "
+                       f"by subtree {outer.name!r}", spec.path, key, hint)
 
     def device_ranges(self, spec: NodeSpec, node: Located, declared: Mapping[str, Param], values: dict) -> None:
         """Each param bound to a device range (`Param.device`) within the cell's range, at its own line."""

@@ -1,6 +1,7 @@
-"""`fvtree validate TREE [--cell CELL]`: a skill param bound to a device range (`Param.device`) is checked
-against the cell's arm and gripper, read from its cell file without building it; the error names the
-tree's file, line and field, the range and where the cell file sets it."""
+"""What `fvtree validate` checks of params beyond their declared ranges: against the cell (`fvtree validate
+TREE [--cell CELL]`: a skill param bound to a device range, `Param.device`, within the cell's arm and
+gripper ranges, read from its cell file without building it; the error names the tree's file, line and
+field, the range and where the cell file sets it), and the units of subtree params passed on."""
 
 from __future__ import annotations
 
@@ -99,3 +100,42 @@ def test_every_device_param_names_a_known_range_in_its_unit():
         assert p.unit == units[p.device], f"{name}.{key}"
     with pytest.raises(ValueError, match="device range 'gripper_torque'"):
         Param("float", "x", 1.0, "N m", device="gripper_torque")
+
+
+UNITS = """version: 1
+name: u
+cell: {scene: hold}
+subtrees:
+  keep:
+    params: {hold_time: {type: float, unit: UNIT, default: 2000}}
+    root: {skill: hold, name: hold, params: {duration: $hold_time}}
+  outer:
+    params: {wait: {type: float, unit: ms, default: 500}}
+    root: {subtree: keep, name: inner, params: {hold_time: $wait}}
+root:
+  sequence: s
+  memory: true
+  children:
+    - {skill: gentle_grasp, name: grasp}
+    - {subtree: ROOT, name: k}
+"""
+
+
+def test_a_subtree_param_in_ms_passed_into_a_param_in_s_is_refused_with_the_value_in_s():
+    """Units are checked, never converted: 2000 ms given to a hold's `duration` (s) would hold 2000 s."""
+    with pytest.raises(TreeErrors) as caught:
+        load_tree(text=UNITS.replace("UNIT", "ms").replace("ROOT", "keep"), name="u.yaml")
+    (error,) = caught.value.errors
+    assert (error.line, error.path) == (7, "s/k/hold")
+    assert error.message == "param 'duration' takes s, but $hold_time is declared in ms by subtree 'keep'"
+    assert error.hint == "declare $hold_time with unit 's' and give it 2 (2000 ms = 2 s)"
+    assert load_tree(text=UNITS.replace("UNIT", "s").replace("ROOT", "keep").replace("2000", "2.0"), name="u.yaml")
+
+
+def test_units_are_checked_from_subtree_to_subtree():
+    with pytest.raises(TreeErrors) as caught:
+        load_tree(text=UNITS.replace("UNIT", "s").replace("ROOT", "outer"), name="u.yaml")
+    (error,) = caught.value.errors
+    assert (error.line, error.path) == (10, "s/k/inner")
+    assert "param 'hold_time' takes s, but $wait is declared in ms by subtree 'outer'" in error.message
+    assert "give it 0.5 (500 ms = 0.5 s)" in error.hint
