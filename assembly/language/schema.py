@@ -7,7 +7,7 @@ from __future__ import annotations
 from assembly.language.blackboard import blackboard_schema, field_paths
 from assembly.language.catalogue import describe_scenes
 from assembly.language.fields import TOP_FIELDS, object_schema
-from assembly.language.kinds import NODE_KINDS, SCHEMA_DEFS
+from assembly.language.kinds import CONDITION_FIELDS, NODE_KINDS, SCHEMA_DEFS
 from assembly.language.plugins import load_plugins
 from behaviours.skill_kit.registry import PROJECT, SKILL_PACKAGES
 
@@ -36,7 +36,6 @@ def tree_schema() -> dict:
 def condition_defs() -> dict:
     """The condition's schema, its `key` offering every blackboard key and field path (editors
     complete from `examples`; an index such as `[1]` may follow a list)."""
-    condition = SCHEMA_DEFS["condition"]
-    key = {**condition["properties"]["key"], "examples": field_paths(),
+    key = {**CONDITION_FIELDS["key"], "examples": field_paths(),
            "description": "a blackboard key, then fields and indices: see $defs.blackboard"}
-    return {"condition": {**condition, "properties": {**condition["properties"], "key": key}}}
+    return {"condition": {**SCHEMA_DEFS["condition"], "properties": {**CONDITION_FIELDS, "key": key}}}

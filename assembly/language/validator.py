@@ -309,8 +309,10 @@ class Validator:
         if not isinstance(given, Located) or outer is None:
             return
         for key, value in given.items():
-            name = value[1:] if isinstance(value, str) and value.startswith("$") else None
-            source, target = outer.params.get(name) if name else None, declared.get(key)
+            if not (isinstance(value, str) and value.startswith("$")):
+                continue
+            name = value[1:]
+            source, target = outer.params.get(name), declared.get(key)
             if source is None or target is None or not source.unit or not target.unit or source.unit == target.unit:
                 continue
             hint = f"declare ${name} with unit {target.unit!r}"
