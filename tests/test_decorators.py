@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import json
+
+from assembly.cli import main
 from assembly.testing import TreeHarness
 
 LONG_MOVE = "{skill: move_to, name: go, params: {offset: [0.3, 0, 0], speed: 0.1}}"  # 3 s of motion
@@ -100,3 +103,19 @@ def test_conditions_compare_nested_values():
                 "    - {condition: has, key: /robot/fault, op: eq, value: null}\n")
     h.tick()
     h.assert_status({"s": "SUCCESS"})
+
+
+def test_a_failed_guards_reason_reaches_the_run_summary_and_the_transition_log(tmp_path):
+    tree = tmp_path / "t.yaml"
+    tree.write_text("version: 1\nname: t\ncell: {scene: hold}\nroot:\n  guard: pressed\n"
+                    "  while: {key: \"/fv/left.force[1]\", op: gt, value: 5.0}\n"
+                    f"  child: {LONG_MOVE}\n")
+    assert main(["run", str(tree), "--runs-dir", str(tmp_path / "runs"), "--no-record", "--no-plots"]) != 0
+    (run,) = (tmp_path / "runs").iterdir()
+    summary = json.loads((run / "summary.json").read_text())
+    assert summary["where"] == "pressed"
+    assert summary["message"].startswith("guard condition failed: /fv/left.force[1] = ")
+    assert summary["message"].endswith(", not gt 5.0")
+    transitions = [json.loads(line) for line in (run / "transitions.jsonl").read_text().splitlines()]
+    assert any(t["node"] == "pressed" and t["to"] == "FAILURE" and t["feedback"] == summary["message"]
+               for t in transitions)
