@@ -87,11 +87,15 @@ def _validate_file(path: str, cell: str) -> str:
 
         design = DesignModel.load(path)
         return f"design, {len(design.elements())} elements on {len(design.plates())} plates"
-    if _is_cell_file(path):
-        return _validate_cell(path)
+    from assembly.errors import TreeErrors
     from assembly.language.reader import load_tree
 
-    doc = load_tree(path, cell=cell)
+    try:
+        doc = load_tree(path, cell=cell)
+    except TreeErrors:
+        if _is_cell_file(path):  # asked only of a file that is no tree: a tree is read once
+            return _validate_cell(path)
+        raise
     return f"{doc.name}, {sum(1 for _ in _walk(doc.root))} nodes, for cell {cell}"
 
 
