@@ -92,6 +92,7 @@ def load_plugins() -> None:
     """Load every installed plug-in's skills and scenes, once."""
     global _loaded
     if not _loaded:
-        add_skills(entry_points(group=SKILL_GROUP))
-        add_scenes(entry_points(group=SCENE_GROUP))
+        found = entry_points()  # one scan of the installed packages for both groups
+        add_skills(found.select(group=SKILL_GROUP))
+        add_scenes(found.select(group=SCENE_GROUP))
         _loaded = True
