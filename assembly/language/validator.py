@@ -333,7 +333,7 @@ class Validator:
             if limit is None or isinstance(value, bool) or not isinstance(value, (int, float)) or limit.contains(value):
                 continue
             where = given if isinstance(given, Located) and key in given else node
-            what, consequence = DEVICE_RANGES[param.device].rstrip(")").split(" (", 1)
+            what, consequence = DEVICE_RANGES[param.device]
             self.error(where, f"param {key!r} = {value:g} {param.unit} is outside the {what} range of cell "
                        f"{self.cell.name}, [{limit.low:g}, {limit.high:g}] {limit.unit}, from {limit.source}",
                        spec.path, key if where is given else "params",

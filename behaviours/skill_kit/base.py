@@ -53,12 +53,12 @@ _TYPES: dict[str, tuple[type[Any], ...]] = {"float": (int, float), "int": (int,)
 
 # The ranges of a cell's devices a skill param can be bound to (`Param.device`): the cell's arm and gripper
 # refuse (or cap) a command beyond them, so `fvtree validate --cell CELL` checks such params against the cell.
-DEVICE_RANGES = {
-    "gripper_force": "gripper force (the gripper refuses a stronger grip: a FAULT)",
-    "gripper_width": "gripper opening (the gripper refuses a wider one: a FAULT)",
-    "arm_speed": "TCP speed (the arm caps a faster move at it)",
-    "arm_angular_speed": "TCP turn rate (the arm refuses a faster turn: a FAULT)",
-    "arm_force": "force at the TCP (the arm stops above it: a FAULT)",
+DEVICE_RANGES: dict[str, tuple[str, str]] = {  # name -> (what it bounds, what the cell does beyond it)
+    "gripper_force": ("gripper force", "the gripper refuses a stronger grip: a FAULT"),
+    "gripper_width": ("gripper opening", "the gripper refuses a wider one: a FAULT"),
+    "arm_speed": ("TCP speed", "the arm caps a faster move at it"),
+    "arm_angular_speed": ("TCP turn rate", "the arm refuses a faster turn: a FAULT"),
+    "arm_force": ("force at the TCP", "the arm stops above it: a FAULT"),
 }
 
 
