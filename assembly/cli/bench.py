@@ -15,6 +15,7 @@ BENCHES = {
     "recording": "assembly.bench.recording_cost",
     "demos": "assembly.bench.demos",
     "seeds": "assembly.bench.seeds",
+    "validate": "assembly.bench.validate",
 }
 
 
