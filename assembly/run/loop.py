@@ -75,11 +75,12 @@ class Recorder(Protocol):
 class Monitor(Protocol):
     """A live monitor of the run (`assembly.interop.groot2`, `fvtree run --groot2`): a post-tick
     handler publishing the statuses, which may pause the tree inside a tick at a breakpoint. While
-    paused it calls the `hold` it was bound to every few milliseconds; `hold` raises to stop the run."""
+    paused it calls the `hold` it was bound to every few milliseconds with the path of the node it
+    waits at; `hold` raises to stop the run."""
 
     def __call__(self, tree: py_trees.trees.BehaviourTree) -> None: ...
 
-    def bind(self, hold: Callable[[], None]) -> None: ...
+    def bind(self, hold: Callable[[str], None]) -> None: ...
 
     @property
     def paused_s(self) -> float: ...
@@ -165,9 +166,10 @@ class Runner:
     def _kick_watchdog(self, tree: py_trees.trees.BehaviourTree) -> None:
         self.cell.arm.kick()
 
-    def _hold(self) -> None:
-        """While a monitor pauses the tree mid-tick (the cell does not step): the e-stop inputs and
-        the supervisor are checked as before a tick, and a stop due ends the run."""
+    def _hold(self, where: str) -> None:
+        """While a monitor pauses the tree mid-tick at the node `where` (the cell does not step): the
+        e-stop inputs and the supervisor are checked as before a tick, and a stop due ends the run."""
+        self.tip.path = where  # where the tree is: what a stop now interrupts
         self.stop_policy.before_tick(self.behaviour_tree)
         if self.supervisor is not None:
             self.supervisor(self.behaviour_tree)

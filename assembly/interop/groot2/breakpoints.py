@@ -6,7 +6,7 @@ REPLACE hook does not wait. Either then gives the node's result when its `desire
 or FAILURE (a PRE hook's node is then not ticked at all; a running node is stopped with that status),
 and lets the node be otherwise. This is BT.CPP's `Groot2Publisher` behaviour.
 
-While it waits, the tick thread calls `hold` every `HOLD_PERIOD` s: the run loop's own check that
+While it waits, the tick thread calls `hold` (with the node's uid) every `HOLD_PERIOD` s: the run loop's own check that
 the cell may stay paused (the e-stop inputs, the cell supervisor), which raises to end the run. Hooks
 are allowed only where the runner can honour them safely (a simulated cell, whose world does not
 move while the tick waits); elsewhere `insert` refuses with the reason. A hook is installed by
@@ -41,7 +41,7 @@ class Breakpoints:
         self.refused = refused  # why hooks are not allowed here (None: they are)
         self.notify: Callable[[int], None] = lambda uid: None  # tell Groot2 a breakpoint is reached
         self.on_pause: Callable[[], None] = lambda: None  # publish the statuses before waiting
-        self.hold: Callable[[], None] = lambda: None  # the run loop's checks while paused
+        self.hold: Callable[[int], None] = lambda uid: None  # the run loop's checks while paused at a node
         self.paused_s = 0.0  # wall time the tree has spent waiting at breakpoints
         self.waiting: tuple[int, Position] | None = None
         self._hooks: dict[tuple[int, Position], Hook] = {}
@@ -141,7 +141,7 @@ class Breakpoints:
                         self._ready.discard(key)
                         return
                     self._lock.wait(HOLD_PERIOD)
-                self.hold()  # may raise: the run stops while paused
+                self.hold(key[0])  # may raise: the run stops while paused
         finally:
             self.waiting = None
             self.paused_s += time.monotonic() - start

@@ -119,9 +119,11 @@ class Groot2Monitor:
             if self._recording_since is not None:
                 self._transitions.extend(changed)
 
-    def bind(self, hold: Callable[[], None]) -> None:
-        """The run loop's checks while a breakpoint pauses the tick (it raises to stop the run)."""
-        self.breakpoints.hold = hold
+    def bind(self, hold: Callable[[str], None]) -> None:
+        """The run loop's checks while a breakpoint pauses the tick at the node of a path (it raises to
+        stop the run)."""
+        paths = {uid: path for path, uid in self.tree.uids.items()}
+        self.breakpoints.hold = lambda uid: hold(paths[uid])
 
     @property
     def paused_s(self) -> float:
