@@ -228,6 +228,44 @@ def test_a_replace_hook_gives_the_node_its_result_without_running_it(tmp_path):
         run.close()
 
 
+UNDER_PARALLEL = """version: 1
+name: under_parallel
+cell: {tick_hz: 30, scene: hold}
+root:
+  sequence: main
+  memory: true
+  children:
+    - parallel: both
+      policy: all
+      synchronise: true
+      children:
+        - {skill: move_to, name: up, params: {offset: [0.0, 0.0, 0.02], speed: 0.05}}
+        - {condition: open, key: /gripper/width, op: gt, value: 0.0}
+"""
+
+
+def test_hooks_reach_nodes_that_py_trees_ticks_through_generators(tmp_path):
+    """py_trees' parallel ticks its children with their generator `tick`, not `tick_once`."""
+    tree = tmp_path / "under_parallel.yaml"
+    tree.write_text(UNDER_PARALLEL)
+    run, client = monitored(tree, tmp_path)
+    try:
+        uid = uids_by_path(client)
+        client.request("I", hook(uid["main/both/up"]))
+        client.request("I", hook(uid["main/both/open"], mode=1, desired="FAILURE", position=1))  # after its tick
+        thread, out = in_background(run)
+        assert client.breakpoint_reached() == uid["main/both/up"]
+        client.request("U", json.dumps({"uid": uid["main/both/up"], "position": 0, "desired_status": "SUCCESS",
+                                        "remove_when_done": False}).encode())
+        thread.join(300)
+        assert out["result"].status == "FAILURE"  # the condition's result replaced after it ran
+        assert run.tree.nodes["main/both/open"].status == Status.FAILURE
+        assert run.cell.clock.now() < 0.2  # `up` never moved: its result was given at the breakpoint
+    finally:
+        client.close()
+        run.close()
+
+
 def test_hooks_are_refused_with_the_reason_where_the_cell_cannot_hold_still():
     from assembly.interop.groot2 import start_monitor
 

@@ -4,8 +4,10 @@ Every tick: the stop policy latches e-stop inputs, the perception stage publishe
 /fv/left, /fv/right, /robot/*, /gripper/* and /task/estop, and the cell supervisor (when the run
 is supervised) trips arm and gripper on any fault (pre-tick handlers); the tree ticks once; the
 arm's watchdog is kicked, then the tip, the load profiles, the transition log and the progress
-line are updated (post-tick handlers); the cell advances one period of its clock (simulated time,
-or a sleep to the next period on a real cell). After the tick the stop policy may halt the run.
+line are updated and a live monitor (`--groot2`) publishes the statuses (post-tick handlers); the
+cell advances one period of its clock (simulated time, or a sleep to the next period on a real
+cell). After the tick the stop policy may halt the run. A monitor's breakpoint may pause the tree
+inside a tick: the cell does not step, and the stop policy's checks go on meanwhile (`Runner._hold`).
 
 The loop is fail-safe: an exception anywhere in a tick (a skill, a handler, the cell) halts the
 tree, stops arm and gripper and ends the run with status CRASHED, naming the node that raised;
