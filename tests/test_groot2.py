@@ -195,6 +195,25 @@ def test_a_breakpoint_pauses_the_tree_and_holds_the_cell_still_until_unlocked(tm
         run.close()
 
 
+def test_a_client_gone_silent_lets_a_paused_tree_go_on(tmp_path, monkeypatch):
+    """BT.CPP's heartbeat: no request for a while disables the hooks, so a vanished Groot2 does not
+    leave the cell paused for ever."""
+    run, client = monitored(HOLD, tmp_path)
+    try:
+        lift = uids_by_path(client)["hold_demo/lift"]
+        client.request("I", hook(lift))
+        thread, out = in_background(run)
+        assert client.breakpoint_reached() == lift
+        monkeypatch.setattr("assembly.interop.groot2.server.MAX_SILENCE", 0.2)  # 5 s in BT.CPP and here
+        thread.join(300)  # the client asks nothing more
+        assert out["result"].status == "SUCCESS"
+        assert not json.loads(client.request("D")[0])[0]["enabled"]  # disabled; this request revives them
+        assert json.loads(client.request("D")[0])[0]["enabled"]
+    finally:
+        client.close()
+        run.close()
+
+
 def test_an_estop_while_paused_stops_the_run(tmp_path):
     run, client = monitored(HOLD, tmp_path)
     try:
@@ -281,6 +300,26 @@ def test_hooks_are_refused_with_the_reason_where_the_cell_cannot_hold_still():
     finally:
         client.close()
         monitor.close()
+
+
+def test_the_bytes_are_btcpp_s():
+    """Header, status and transition layouts, byte for byte as groot2_protocol.h lays them out."""
+    from assembly.interop.groot2 import protocol
+
+    header = protocol.Header.decode(bytes([2, ord("S"), 0x78, 0x56, 0x34, 0x12]))
+    assert (header.protocol, header.type, header.request_id) == (2, ord("S"), 0x12345678)
+    assert protocol.reply_header(header, bytes(range(16))) == bytes([2, ord("S"), 0x78, 0x56, 0x34, 0x12, *range(16)])
+    assert protocol.encode_statuses([(1, 2), (0x0102, 13)]) == bytes([1, 0, 2, 2, 1, 13])
+    assert protocol.encode_transitions([(0x010203040506, 7, 1)]) == bytes([6, 5, 4, 3, 2, 1, 7, 0, 1])
+    assert protocol.decode_transitions(bytes([6, 5, 4, 3, 2, 1, 7, 0, 1])) == [(0x010203040506, 7, 1)]
+    with pytest.raises(protocol.ProtocolError, match="wrong request header"):
+        protocol.Header.decode(b"\x02S")
+    hooks = protocol.parse_hooks(b'[{"uid": 3, "position": 1, "mode": 1, "enabled": true, "once": true,'
+                                 b' "desired_status": "FAILURE"}]')
+    assert hooks[0].to_json() == {"enabled": True, "uid": 3, "mode": 1, "once": True, "desired_status": "FAILURE",
+                                  "position": 1}
+    with pytest.raises(protocol.ProtocolError, match="needs the field 'uid'"):
+        protocol.parse_hooks(b'{"position": 0}')
 
 
 # ---- the command line ------------------------------------------------------------------------------
