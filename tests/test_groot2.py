@@ -343,6 +343,19 @@ def test_a_taken_port_is_a_clear_error(tmp_path, capsys):
     assert f"--groot2: cannot listen on 127.0.0.1:{port}" in capsys.readouterr().err
 
 
+def test_a_taken_publisher_port_is_a_clear_error_too():
+    from assembly.interop.groot2 import Groot2Error, start_monitor
+
+    doc = load_tree(HOLD)
+    port = free_port_pair()
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", port + 1))
+        taken.listen()
+        with pytest.raises(Groot2Error, match=f"cannot listen on 127.0.0.1:{port + 1}"):
+            start_monitor(doc, build(doc).nodes, lambda: 0.0, port)
+    start_monitor(doc, build(doc).nodes, lambda: 0.0, port).close()  # both ports were freed again
+
+
 def test_missing_libraries_are_a_clear_error(monkeypatch):
     from assembly.interop.groot2 import Groot2Error, start_monitor
 

@@ -72,24 +72,23 @@ class Groot2Monitor:
         self.breakpoints.notify = self._notify
         self._last_request = time.monotonic()
         self._context = zmq.Context()
-        self._server = self._bind(zmq.REP, host, port)
-        self._publisher = self._bind(zmq.PUB, host, port + 1)
+        sockets: list[zmq.Socket] = []
+        try:
+            for kind, at in ((zmq.REP, port), (zmq.PUB, port + 1)):
+                sockets.append(self._context.socket(kind))
+                sockets[-1].setsockopt(zmq.LINGER, 0)
+                sockets[-1].bind(f"tcp://{host}:{at}")
+        except zmq.ZMQError as exc:
+            for socket in sockets:
+                socket.close()
+            self._context.term()
+            raise Groot2Error(f"--groot2: cannot listen on {host}:{at} ({exc.strerror})",
+                              hint="choose another port: --groot2 PORT (it and PORT+1 must be free)") from None
+        self._server, self._publisher = sockets
         self.address = f"{host}:{port}"
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._serve, name="groot2", daemon=True)
         self._thread.start()
-
-    def _bind(self, kind: int, host: str, port: int) -> zmq.Socket:
-        socket = self._context.socket(kind)
-        socket.setsockopt(zmq.LINGER, 0)
-        try:
-            socket.bind(f"tcp://{host}:{port}")
-        except zmq.ZMQError as exc:
-            socket.close()
-            self._context.term()
-            raise Groot2Error(f"--groot2: cannot listen on {host}:{port} ({exc.strerror})",
-                              hint="choose another port: --groot2 PORT (it and PORT+1 must be free)") from None
-        return socket
 
     # ---- the tick's side -------------------------------------------------------------------------
     def __call__(self, tree: py_trees.trees.BehaviourTree) -> None:
