@@ -51,6 +51,7 @@ class Library:
     def __init__(self, path: Path):
         self._lib = ctypes.CDLL(str(path))
         for name, args in (("fv_btcpp_run", [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_int]),
+                           ("fv_btcpp_fulltree", [ctypes.c_char_p, ctypes.c_char_p]),
                            ("fv_btcpp_xsd", [ctypes.c_char_p]), ("fv_btcpp_version", [])):
             getattr(self._lib, name).argtypes = args
             getattr(self._lib, name).restype = ctypes.c_char_p
@@ -74,6 +75,14 @@ class Library:
             _, path, node_id, *ports = line.split("\t")
             reads.append((path, node_id, dict(p.split("=", 1) for p in ports)))
         return Run(status, int(ticks), reads)
+
+    def fulltree(self, xml: str) -> str:
+        """What BT.CPP's Groot2 publisher sends for `xml` loaded with stubs (`WriteTreeToXML` with
+        `_uid`, `_fullpath` and the models): the reference for `fvtree run --groot2`'s tree."""
+        out = self._lib.fv_btcpp_fulltree(spec(xml, blackboard=True).encode(), xml.encode()).decode()
+        if out.startswith("ERROR\t"):
+            raise RuntimeError(out[6:])
+        return out
 
     def xsd(self, xml: str) -> str:
         """BT.CPP's writeTreeXSD for a factory with the nodes of `xml`'s `<TreeNodesModel>`."""

@@ -56,8 +56,27 @@ def node_elements(xml: str) -> list[ET.Element]:
     return [e for block in root.findall("BehaviorTree") for e in block.iter() if e is not block]
 
 
+def fvtree_uids(xml: str) -> dict[str, int]:
+    """Each node's uid by its fvtree path (its `name` and those of the nodes above it), read from
+    a FULLTREE reply: a `<SubTree>` continues in the next `<BehaviorTree>` block of its ID."""
+    blocks = ET.fromstring(xml).findall("BehaviorTree")
+    queued: dict[str, list[ET.Element]] = {}
+    for block in blocks[1:]:
+        queued.setdefault(block.get("ID"), []).append(block)
+    out: dict[str, int] = {}
+
+    def walk(element: ET.Element, parent: str) -> None:
+        path = f"{parent}/{element.get('name')}" if parent else element.get("name")
+        out[path] = int(element.get("_uid"))
+        for child in queued[element.get("ID")].pop(0) if element.tag == "SubTree" else element:
+            walk(child, path)
+
+    walk(blocks[0][0], "")
+    return out
+
+
 def uids_by_path(client: Client) -> dict[str, int]:
-    return {e.get("_fullpath"): int(e.get("_uid")) for e in node_elements(client.full_tree())}
+    return fvtree_uids(client.full_tree())
 
 
 # ---- the tree, the statuses, the blackboards -----------------------------------------------------
@@ -67,9 +86,11 @@ def test_the_full_tree_names_every_node_with_a_uid_and_its_path(assembly):
     root = ET.fromstring(xml)
     assert root.tag == "root" and root.get("BTCPP_format") == "4"
     nodes = node_elements(xml)
-    assert {e.get("_fullpath") for e in nodes} == set(run.tree.nodes)  # every node of the running tree
+    assert set(fvtree_uids(xml)) == set(run.tree.nodes)  # every node of the running tree
     uids = [int(e.get("_uid")) for e in nodes]
     assert len(set(uids)) == len(uids) == len(run.tree.nodes)
+    assert all(e.get("_fullpath") for e in nodes)
+    assert {e.get("_fullpath") for e in nodes if e.tag == "descend_until_contact"} == {"build/descend"}
     assert set(client.statuses()) == set(uids)  # the status buffer covers exactly these nodes
     assert len(client.tree_id) == 16
     # Each subtree instance is a block of its own, found from its <SubTree> by ID and the same _fullpath.
@@ -106,13 +127,13 @@ def test_the_blackboards_decode_as_msgpack(assembly):
     run, client = assembly
     for _ in range(60):
         run.tick()
-    boards = msgpack.unpackb(client.blackboards("architectural_assembly", "main/assemble/elements/build", "nope"))
-    assert set(boards) == {"architectural_assembly", "main/assemble/elements/build"}  # unknown names left out
+    boards = msgpack.unpackb(client.blackboards("architectural_assembly", "build", "nope"))
+    assert set(boards) == {"architectural_assembly", "build"}  # unknown names left out
     tree_board = boards["architectural_assembly"]
     assert tree_board["/robot/pose"] == pytest.approx(list(Blackboard.storage["/robot/pose"]))
     assert tree_board["/task/element"]["id"] == Blackboard.storage["/task/element"]["id"]
     assert tree_board["/fv/left"]["finger"] == "left"
-    assert boards["main/assemble/elements/build"] == {"scan_step": 0.002, "descend_speed": 0.01, "grasp_force": 40.0,
+    assert boards["build"] == {"scan_step": 0.002, "descend_speed": 0.01, "grasp_force": 40.0,
                                                       "grasp_squeeze": 0.005, "regrasps": 1}
 
 
@@ -155,6 +176,47 @@ def test_bad_requests_get_btcpp_error_replies(assembly):
     with pytest.raises(ServerError, match="Node ID not found"):
         client.request("R", json.dumps({"uid": 9999, "position": 0}).encode())
     assert client.full_tree().startswith("<root")  # the server goes on
+
+
+@pytest.fixture(scope="module")
+def btcpp(request):
+    """The real BehaviorTree.CPP (tests/btcpp_library.py), or a skip saying why it cannot be built."""
+    from btcpp_library import LibraryUnavailable
+    from btcpp_library import build as build_library
+
+    try:
+        return build_library(Path(request.config.cache.mkdir("btcpp-stubs")))
+    except LibraryUnavailable as exc:
+        if os.environ.get("FVTREE_REQUIRE_BTCPP"):  # set by .ci/run where it must work
+            pytest.fail(f"the real BehaviorTree.CPP cannot be built: {exc}")
+        pytest.skip(f"the real BehaviorTree.CPP cannot be built here: {exc}")
+
+
+TREES = sorted((ROOT / "trees").glob("*.yaml"))
+
+
+@pytest.mark.parametrize("tree", TREES, ids=[t.stem for t in TREES])
+def test_the_full_tree_is_what_btcpp_s_own_publisher_sends(btcpp, tree):
+    """BT.CPP loads the exported file and writes it as its Groot2 publisher does: the same blocks
+    (ID, _fullpath) in the same order, the same nodes (tag, name, _uid) in each, the same _fullpath
+    where BT.CPP writes one (SubTree nodes), and every port of ours with BT.CPP's value (BT.CPP
+    adds the ports left to their defaults)."""
+    from assembly.interop.btcpp import export_tree
+    from assembly.interop.groot2.tree_xml import monitor_tree
+
+    ours = ET.fromstring(monitor_tree(load_tree(tree)).xml)
+    theirs = ET.fromstring(btcpp.fulltree(export_tree(tree, tree.parent)))
+    blocks = [(b.get("ID"), b.get("_fullpath")) for b in theirs.findall("BehaviorTree")]
+    assert [(b.get("ID"), b.get("_fullpath")) for b in ours.findall("BehaviorTree")] == blocks
+    for mine, real in zip(ours.findall("BehaviorTree"), theirs.findall("BehaviorTree")):
+        mine_nodes, real_nodes = list(mine.iter())[1:], list(real.iter())[1:]
+        assert [(e.tag, e.get("_uid")) for e in mine_nodes] == [(e.tag, e.get("_uid")) for e in real_nodes]
+        for m, r in zip(mine_nodes, real_nodes):
+            assert m.get("name") == r.get("name", m.get("name"))  # BT.CPP writes no name on a SubTree
+            if r.get("_fullpath") is not None:
+                assert m.get("_fullpath") == r.get("_fullpath")
+            ports = {k: v for k, v in m.attrib.items() if k not in ("name", "ID", "_uid", "_fullpath")}
+            assert ports.items() <= r.attrib.items(), m.get("_fullpath")
 
 
 # ---- breakpoints -----------------------------------------------------------------------------------
@@ -381,13 +443,14 @@ def test_btview_reads_the_tree_statuses_and_blackboard(assembly):
     try:
         tree = viewer.fetch_tree()
         assert tree.size == len(run.tree.nodes)
-        by_path = {node.path: node for node in tree.walk()}
-        assert set(by_path) == set(run.tree.nodes)
-        assert by_path["main/assemble/elements/build/prop/pick/pick_once/scan"].registration == "vis_scan"
+        by_uid = {node.uid: node for node in tree.walk()}
+        uid = uids_by_path(client)
+        assert set(by_uid) == set(uid.values())
+        assert by_uid[uid["main/assemble/elements/build/prop/pick/pick_once/scan"]].registration == "vis_scan"
         statuses = viewer.poll().statuses
         for path, node in run.tree.nodes.items():
             if node.status != Status.INVALID:
-                assert statuses[by_path[path].uid].status == NodeStatus(CODES[node.status]), path
+                assert statuses[uid[path]].status == NodeStatus(CODES[node.status]), path
         board = viewer.fetch_blackboard(["architectural_assembly"])
         assert board["architectural_assembly"]["/gripper/width"] == pytest.approx(Blackboard.storage["/gripper/width"])
     finally:

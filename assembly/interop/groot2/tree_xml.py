@@ -1,18 +1,19 @@
 """The running tree as Groot2's `FULLTREE` reply: BT.CPP XML with `_uid` and `_fullpath` on every node.
 
 BT.CPP's publisher sends the tree as created: every subtree instance a `<BehaviorTree>` of its own
-(in the order the instances are met, depth first) whose `_fullpath` is the instance's, the `<SubTree>`
-node pointing at it by ID and the same `_fullpath`. Groot2 (and btview) expand each `<SubTree>` from
-the next block of its ID. Here each node's element comes from the project's BT.CPP export
-(`assembly.interop.btcpp.export_tree`, so Groot2 sees the same tags and ports as in an exported
-file), walked beside the validated tree the run ticks; each node gets a `_uid` from 1 in that depth
-first order and its fvtree path as `_fullpath`. A node a `--substitute` rule replaced is a
-`TestDouble` action saying what it stands for.
+(in the order the instances are met, depth first) whose `_fullpath` is the instance's path (the
+names of the subtree instances it is in, joined by `/`), the `<SubTree>` node pointing at it by ID.
+Groot2 (and btview) expand each `<SubTree>` from the next block of its ID. Here each node's element
+comes from the project's BT.CPP export (`assembly.interop.btcpp.export_tree`, so Groot2 sees the
+same tags and ports as in an exported file), walked beside the validated tree the run ticks; each
+node gets its `_uid` as BT.CPP numbers them (from 1, depth first, a subtree's nodes where it is
+instantiated) and its BT.CPP `fullPath()` as `_fullpath` (BT.CPP writes that only on `<SubTree>`
+nodes; tests/test_groot2.py compares the whole with what BT.CPP itself writes for the same file).
+A node a `--substitute` rule replaced is a `TestDouble` action saying what it stands for.
 """
 
 from __future__ import annotations
 
-import copy
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,8 +30,8 @@ NOT_PORTS = {"ID", "name", "_uid", "_fullpath", "_fvtree_defaults"}
 
 @dataclass
 class MonitorTree:
-    """The XML Groot2 is sent, each node's uid by its path, and each subtree instance's ports (what
-    BT.CPP keeps on a subtree's own blackboard) by its path."""
+    """The XML Groot2 is sent, each node's uid by its fvtree path, and each subtree instance's ports
+    (what BT.CPP keeps on a subtree's own blackboard) by its BT.CPP instance path."""
 
     xml: str
     uids: dict[str, int]  # node path -> uid
@@ -47,7 +48,7 @@ def monitor_tree(doc: TreeDocument) -> MonitorTree:
     out = ET.Element("root", {"BTCPP_format": "4", "main_tree_to_execute": main_id})
     main = ET.SubElement(out, "BehaviorTree", {"ID": main_id, "_fullpath": ""})
     walk = _Walk(blocks, out)
-    main.append(walk.node(doc.root, _body(blocks[main_id])))
+    main.append(walk.node(doc.root, _body(blocks[main_id]), ""))
     model = exported.find("TreeNodesModel")
     if model is None:
         model = ET.Element("TreeNodesModel")
@@ -66,17 +67,24 @@ class _Walk:
         self.subtree_ports: dict[str, dict[str, object]] = {}
         self.doubles: set[str] = set()
 
-    def node(self, spec: NodeSpec, exported: ET.Element) -> ET.Element:
-        element = self._double(spec) if spec.kind in DOUBLE_KINDS else copy.copy(exported)
-        element[:] = []  # children are added below, from the validated tree
+    def node(self, spec: NodeSpec, exported: ET.Element, instance: str) -> ET.Element:
+        """The element of `spec` (and below), inside the subtree instance of path `instance`."""
+        # A new element (not a copy, which would share its attributes with the other instances of a
+        # subtree); children are added below, from the validated tree.
+        element = self._double(spec) if spec.kind in DOUBLE_KINDS else ET.Element(exported.tag, exported.attrib)
         element.attrib.pop("_fvtree_defaults", None)
         self.uids[spec.path] = uid = len(self.uids) + 1
         element.set("_uid", str(uid))
-        element.set("_fullpath", spec.path)
+        # BT.CPP's TreeNode::fullPath(): the subtree instance's path, the name, and the uid when
+        # the name is the node's ID
+        prefix = f"{instance}/" if instance else ""
+        type_id = element.get("ID", "") if element.tag == "SubTree" else element.tag
+        element.set("_fullpath", prefix + spec.name + (f"::{uid}" if spec.name == type_id else ""))
         if spec.kind == "subtree":
-            self.subtree_ports[spec.path] = {k: _value(v) for k, v in exported.attrib.items() if k not in NOT_PORTS}
-            block = ET.SubElement(self.root, "BehaviorTree", {"ID": spec.type, "_fullpath": spec.path})
-            block.append(self.node(spec.children[0], _body(self.blocks[spec.type])))
+            inner = prefix + spec.name  # BT.CPP's subtree instance path, the name of its blackboard
+            self.subtree_ports[inner] = {k: _value(v) for k, v in exported.attrib.items() if k not in NOT_PORTS}
+            block = ET.SubElement(self.root, "BehaviorTree", {"ID": spec.type, "_fullpath": inner})
+            block.append(self.node(spec.children[0], _body(self.blocks[spec.type]), inner))
             return element
         if spec.kind in DOUBLE_KINDS:
             return element
@@ -84,7 +92,7 @@ class _Walk:
         if len(kids) != len(spec.children):
             raise ValueError(f"{spec.path}: the export has {len(kids)} children, the tree {len(spec.children)}")
         for child, child_element in zip(spec.children, kids):
-            element.append(self.node(child, child_element))
+            element.append(self.node(child, child_element, instance))
         return element
 
     def _double(self, spec: NodeSpec) -> ET.Element:

@@ -320,6 +320,25 @@ const char* fv_btcpp_run(const char* spec, const char* xml, int max_ticks)
   return g_result.c_str();
 }
 
+// The tree as BT.CPP's Groot2Publisher sends it to Groot2 (its FULLTREE reply): `xml` loaded with
+// the spec's stubs and written back by WriteTreeToXML with metadata (_uid, _fullpath) and models.
+const char* fv_btcpp_fulltree(const char* spec, const char* xml)
+{
+  try
+  {
+    BehaviorTreeFactory factory;
+    auto blackboard = Blackboard::create();
+    register_spec(factory, spec, blackboard);
+    auto tree = factory.createTreeFromText(xml, blackboard);
+    g_result = WriteTreeToXML(tree, true, true);
+  }
+  catch(const std::exception& exc)
+  {
+    g_result = std::string("ERROR\t") + exc.what();
+  }
+  return g_result.c_str();
+}
+
 // The XSD that BT.CPP writes (writeTreeXSD) for a factory with the spec's nodes registered.
 const char* fv_btcpp_xsd(const char* spec)
 {
