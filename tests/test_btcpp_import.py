@@ -139,8 +139,8 @@ def test_autoremap_with_nothing_to_remap_a_required_param_to_is_refused(tmp_path
         import_xml(xml, tmp_path / "autoremap.yaml")
     errors = [(e.line, e.message) for e in caught.value.errors]
     line = AUTOREMAP.splitlines().index('      <SubTree ID="Carry" name="carry" _autoremap="true"/>') + 1
-    assert (line, "_autoremap: the subtree's param 'pace' has no default, and no port of the main tree is "
-                  "named 'pace' to remap it to") in errors
+    missing = "_autoremap: the subtree's param 'pace' has no default, and no port of the main tree is named 'pace'"
+    assert (line, missing + " to remap it to") in errors
     assert (line + 1, "_autoremap: expected true or false, got '{flag}'") in errors
 
 

@@ -11,6 +11,7 @@ import json
 import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -357,7 +358,7 @@ class _Reader:
             if name in given:
                 continue
             if name in self.scope.params or name in self.scope.defaults:
-                out[name] = self.reference(x, "_autoremap", name, lambda text, t=type_: from_port(text, t))
+                out[name] = self.reference(x, "_autoremap", name, partial(from_port, type_=type_))
             elif name not in defaults:
                 where = "param of the enclosing subtree" if self.scope.subtree else "port of the main tree"
                 self.refuse(x, f"_autoremap: the subtree's param {name!r} has no default, and no {where} is "
