@@ -213,6 +213,26 @@ def test_fvtree_s_own_kinds_run_in_bt_cpp_as_in_fvtree(library, tmp_path, fails)
     assert (btcpp.status, reached(btcpp) & LEAVES) == (result.status, ticked)
 
 
+def test_a_guard_whose_condition_is_false_is_skipped_in_bt_cpp_where_fvtree_fails_it(library, tmp_path):
+    """The known difference docs/btcpp.md states: BT.CPP's `_while` makes a false guard SKIPPED, and
+    the sequence goes on; fvtree's guard fails, and so does the sequence."""
+    tree = tmp_path / "guarded.yaml"
+    tree.write_text("version: 1\nname: guarded\ncell: {tick_hz: 30, scene: hold}\nroot:\n  sequence: top\n"
+                    "  memory: true\n  children:\n    - guard: only_when_slipping\n"
+                    "      while: {key: /fv/left.slip, op: gt, value: 0.5}\n"
+                    "      child: {skill: move_to, name: a, params: {offset: [0.0, 0.0, 0.01]}}\n"
+                    "    - {skill: move_to, name: after, params: {offset: [0.0, 0.0, 0.01]}}\n")
+    xml = exported(tree, tmp_path)
+    btcpp = library.run(xml)  # /fv/left.slip reads 0.0 there: the condition is false
+    assert (btcpp.status, reached(btcpp) & {"a", "after"}) == ("SUCCESS", {"after"})
+    from assembly.run.options import RunOptions
+    from assembly.run.session import Run
+
+    with Run(tree, RunOptions(runs_dir=tmp_path / "runs", quiet=True, plots=False, record=False)) as run:
+        result = run.loop()  # the held box does not slip: the condition is false
+    assert (result.status, result.where) == ("FAILURE", "top/only_when_slipping")
+
+
 def test_bt_cpp_refuses_what_it_should(library, tmp_path):
     """The checks have teeth: BT.CPP refuses the old processing instruction, a subtree param
     left without a value, a port its node does not declare and a value its type cannot read."""
