@@ -4,20 +4,22 @@ truth, and the pixel-level perception source of the simulated cell.
 A frame is a round sensor window (dark housing around it) showing a blurred, fisheye-distorted,
 vignetted scene of background clutter, optionally a textured object pressed on the skin (it can
 slide: `obj_shift`) and a moving distractor behind it; black markers are drawn on top as
-anti-aliased, radially foreshortened discs whose centres are exactly the given positions. Lighting
-gain and gradient, dark occluders behind the skin, glare, blur and sensor noise are applied per
-frame. Everything random is drawn from the camera's seeded generator.
+anti-aliased, radially foreshortened discs whose centres are the given positions plus the sensor's
+rest jitter (`jitter_px`: seeded AR(1) wander, so the tracker measures the profile's rest jitter, see
+`drawn_jitter`). Lighting gain and gradient, dark occluders behind the skin, glare, blur and sensor
+noise are applied per frame. Everything random is drawn from the camera's seeded generators.
 
 Only what changed is drawn again: the clutter is drawn once; the layer beneath the markers
 (clutter, distractor, object, occluder) is redrawn on the object's bounding box when the object
-moves; the markers are redrawn on their patches when one of them moves; a frame where nothing moved
-more than `TOLERANCE_PX` reuses the last noise-free image (its truth is what was drawn). The sensor
-noise is fresh on every frame (`noise_bank`).
+moves; the markers are redrawn when one of them moves (with rest jitter: on every frame, ~0.13 ms);
+a frame where nothing moved more than `TOLERANCE_PX` reuses the last noise-free image (its truth is
+what was drawn). The sensor noise is fresh on every frame (`noise_bank`).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
@@ -32,11 +34,27 @@ from drivers.sim.models.noise_bank import NoiseBank
 from drivers.sim.models.object_layer import ObjectLayer, ObjectPatch, Placement, object_info_from_mask
 from drivers.sim.models.pipeline_error_model import SLIP_PX_PER_UNIT
 from drivers.sim.models.skin import Skin
+from perception.sensor_profile import SensorProfile
 from perception.state import FINGERS, ObjectInfo, TactileState
 
 HOUSING_GREY = 50.0
 SKIN_BGR = (120.0, 150.0, 205.0)
 TOLERANCE_PX = 0.01  # a marker or object edge moving less than this keeps the last drawing
+# How the pipeline's marker tracker, without its Kalman filter (as the blob tracker of the real logs the
+# profile's rest jitter comes from), sees the drawn markers of a still skin (measured on 2 x 300 frames,
+# tests/perception/test_fv_sim_camera.py::test_pixel_mode_rest_jitter_is_the_profiles_through_the_tracker):
+TRACKED_SHARE = 0.86  # of a marker's drawn sub-pixel wander (the local threshold and pixel grid keep the rest)
+IMAGE_NOISE_PX = 0.0103  # px per axis of its own, from the 2-grey-level image noise on a still drawing
+
+
+def drawn_jitter(profile: SensorProfile) -> float:
+    """Per-axis std (px) of the wander to draw the markers with, so that the tracker measures the
+    profile's rest jitter (`rest_jitter_px`, median frame-to-frame step) on top of the image noise: the
+    steps' variance 2 sigma^2 (1 - rho) is the drawn part's (TRACKED_SHARE sigma_d)^2 2 (1 - rho) plus
+    the image noise's 2 IMAGE_NOISE_PX^2 (white)."""
+    keep = 1.0 - profile.jitter_persistence
+    wanted = profile.noise_sigma_px**2 * keep - IMAGE_NOISE_PX**2
+    return math.sqrt(max(wanted, 0.0) / keep) / TRACKED_SHARE
 
 
 @dataclass(frozen=True)
@@ -94,6 +112,8 @@ class SyntheticFingerVision:
     window_radius: float = 128.0  # px, radius of the round sensor window
     foreshortening: float = 0.35  # radial squash of markers at the window rim
     clutter: int = 14  # background shapes
+    jitter_px: float = 0.0  # per-axis std of the markers' wander about the positions given to `render`, px
+    jitter_persistence: float = 0.0  # lag-1 autocorrelation of that wander from frame to frame (AR(1))
     _rng: np.random.Generator = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -124,7 +144,11 @@ class SyntheticFingerVision:
         self._drawn_position = np.full_like(self.origin, np.nan)  # the markers as last drawn
         self._drawn_size = np.full(len(self.origin), np.nan)
         self._diameters = np.zeros(len(self.origin))
+        self._squash = np.ones(len(self.origin))
         self._seen = np.ones(len(self.origin), bool)  # which drawn markers are visible
+        # The markers' rest jitter: its own generator, so the scene drawn above stays as it was.
+        self._jitter_rng = np.random.default_rng([self.seed, 0x4A17])
+        self._wander: np.ndarray | None = None  # drawn from the stationary distribution on the first frame
 
     # ---- static parts -------------------------------------------------------------------
     def _scene(self) -> np.ndarray:
@@ -236,14 +260,15 @@ class SyntheticFingerVision:
         if not (np.abs(position - self._drawn_position).max(initial=0.0) <= TOLERANCE_PX
                 and np.abs(size - self._drawn_size).max(initial=0.0) <= TOLERANCE_PX):
             self._drawn_position, self._drawn_size = position.copy(), size.copy()
-            self._diameters = self._painter.diameters(position, size)
+            self._squash = self._painter.squash(position)
+            self._diameters = size * self._squash  # equivalent diameters of the squashed discs
             self._clean_key = None
         key = (self._shown, look.gain, look.gradient, look.glare, look.blur)
         if key == self._clean_key:
             return self._clean
         self._seen = self._visible(self._drawn_position, look)
         clean = self._under.copy()
-        self._painter.paint(clean, self._drawn_position, self._drawn_size)
+        self._painter.paint(clean, self._drawn_position, self._drawn_size, self._squash)
         if not look.plain:
             img = clean.astype(np.float32)
             if look.gain != 1.0 or look.gradient:
@@ -267,6 +292,8 @@ class SyntheticFingerVision:
         size = np.asarray(self.marker_size if size is None else size, float)
         if size.shape != (len(position),):
             size = np.full(len(position), size)
+        if self.jitter_px > 0.0:
+            position = position + self._jitter()
         self._update_under(obj, obj_shift, appearance.occlusion, distractor)
         clean = self._clean_frame(position, size, appearance)
         image = self._noise_bank(appearance.noise).add(clean) if appearance.noise > 0 else clean.copy()
@@ -274,6 +301,15 @@ class SyntheticFingerVision:
         place = self._shown.place
         return RenderedFrame(image, Truth(self._drawn_position.copy(), self._diameters, self._seen, mask,
                                           truth_obj, place.shift if place is not None else obj_shift))
+
+    def _jitter(self) -> np.ndarray:
+        """(N, 2) px the markers wander from where the contact puts them on this frame: seeded AR(1)
+        noise of per-axis std `jitter_px` and persistence `jitter_persistence` (a real sensor's rest
+        jitter: camera and compression noise, skin micro-motion, beyond the image noise drawn here)."""
+        fresh = self._jitter_rng.standard_normal(self.origin.shape) * self.jitter_px
+        rho = self.jitter_persistence
+        self._wander = fresh if self._wander is None else rho * self._wander + math.sqrt(1.0 - rho * rho) * fresh
+        return self._wander
 
     def _noise_bank(self, std: float) -> NoiseBank:
         if std not in self._noise:
@@ -308,6 +344,8 @@ class FingerRig:
     seed: int  # the camera's
     preset: str  # the pipeline configuration
     fps: float
+    jitter_px: float = 0.0  # per-axis std of the drawn markers' rest wander (`drawn_jitter`)
+    jitter_persistence: float = 0.0  # its lag-1 autocorrelation
 
 
 class PixelFinger:
@@ -321,7 +359,8 @@ class PixelFinger:
         # Small frames, one at a time: OpenCV's thread pool costs more than it gains on 320x240 images
         # (10-20 % more CPU time per pixel-mode tick with two threads on two cores).
         cv2.setNumThreads(1)
-        self.camera = SyntheticFingerVision(rig.origin, rig.marker_size, tuple(rig.image_size), seed=rig.seed)
+        self.camera = SyntheticFingerVision(rig.origin, rig.marker_size, tuple(rig.image_size), seed=rig.seed,
+                                            jitter_px=rig.jitter_px, jitter_persistence=rig.jitter_persistence)
         self.pipeline = FingerVision(load_config(rig.preset, camera_fps=rig.fps), rig.finger)
         n = self.pipeline.config.calibration.n_frames
         self.pipeline.calibrate([self.camera.render().image for _ in range(n)])
@@ -339,9 +378,11 @@ class PixelFinger:
 
 
 def finger_rigs(sensors: Mapping[str, SensorModel], clock: SimClock, seed: int, preset: str) -> dict[str, FingerRig]:
-    """Each finger's rig; camera seeds follow the sensor models' (`seed * 2 + i`)."""
+    """Each finger's rig; camera seeds follow the sensor models' (`seed * 2 + i`); the markers are drawn
+    with the rest jitter of the sensor's profile (`drawn_jitter`)."""
     return {finger: FingerRig(finger, sensors[finger].origin, sensors[finger].marker_size,
-                              tuple(sensors[finger].image_size), seed * 2 + i, preset, 1.0 / clock.period)
+                              tuple(sensors[finger].image_size), seed * 2 + i, preset, 1.0 / clock.period,
+                              drawn_jitter(sensors[finger].profile), sensors[finger].profile.jitter_persistence)
             for i, finger in enumerate(FINGERS)}
 
 
@@ -350,8 +391,10 @@ def pixel_level_sense(world: World, sensors: Mapping[str, SensorModel], clock: S
     """Perception source of the simulated cell that renders each finger's frame and runs the real
     FingerVision pipeline on it (calibrated at start on frames with no contact).
 
-    The markers are drawn where the contact model puts them without its position noise: the
-    tracking noise comes from the image noise, as on a real sensor. With `workers` (default: when
+    The markers are drawn where the contact model puts them without its position noise, plus the
+    rest jitter of the sensor's profile (the wander a real sensor's camera, compression and skin add):
+    the tracker measures the profile's rest jitter and the pipeline's Kalman filter smooths it, as on
+    a real sensor. With `workers` (default: when
     the machine has two cores or more) the fingers are processed at the same time, as a real rig
     processes each camera on its own (`pixel_workers`); the states are the same either way. The
     source's `close()` stops the workers."""
