@@ -29,6 +29,10 @@ from perception.tracking_kernels import warm_up as warm_tracking_kernels
 from perception.wrench import warm_up as warm_wrench_kernel
 from perception.wrench import wrench
 
+# Share of the empty view the object colour model may take for the object before every state warns
+# that the object's figures are unreliable (pixel mode's default look: 0; a held object: ~0.2).
+MAX_BACKGROUND_MATCH = 0.01
+
 
 class NotCalibratedError(FvtreeError, RuntimeError):
     """`process` was called before `calibrate` or `use_marker_map`."""
@@ -119,7 +123,7 @@ class FingerVision:
         reason = "" if healthy else (f"only {tracked:.0%} of markers tracked "
                                      f"(< {self.config.health.min_tracked:.0%}); contact occluding "
                                      f"the skin, lighting changed, or recalibration needed")
-        reason = "; ".join(r for r in (reason, warning) if r)  # on a healthy state: a warning
+        reason = "; ".join(r for r in (reason, warning, self._object_warning()) if r)  # on a healthy state: a warning
         return TactileState(self.finger, stamp, markers, force, torque, obj, slip, healthy, reason)
 
     def _adopt(self, new: NewMarkers | None) -> None:
@@ -139,6 +143,19 @@ class FingerVision:
         if saturated <= self.config.health.saturated_share:
             return ""
         return f"image washed out ({saturated:.0%} of pixels saturated); reduce exposure or glare"
+
+    def _object_warning(self) -> str:
+        """A warning when the object colour model also matches the empty view (the paper's failure:
+        lighting, glare or a background of the object's colour), so the object's area and centroid
+        are not to be trusted."""
+        if not self.config.proximity.enabled:
+            return ""
+        match = self.proximity.background_match()
+        if match <= MAX_BACKGROUND_MATCH:
+            return ""
+        return (f"object colour model matches {match:.1%} of the empty view (glare, lighting or a background "
+                "of the object's colour): the object's area and centroid are unreliable; mark the object "
+                "again or change its colour or the background")
 
     def _proximity(self, bgr: np.ndarray) -> tuple[ObjectInfo, float]:
         if not self.config.proximity.enabled:

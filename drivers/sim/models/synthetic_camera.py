@@ -28,10 +28,11 @@ import numpy as np
 
 from drivers.clock import SimClock
 from drivers.protocols import World
+from drivers.sim.models.appearance import DEFAULT_LOOK, Look
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
 from drivers.sim.models.marker_patches import MarkerPainter
 from drivers.sim.models.noise_bank import NoiseBank
-from drivers.sim.models.object_layer import ObjectLayer, ObjectPatch, Placement, object_info_from_mask
+from drivers.sim.models.object_layer import OBJECT_BGR, ObjectLayer, ObjectPatch, Placement, object_info_from_mask
 from drivers.sim.models.pipeline_error_model import SLIP_PX_PER_UNIT
 from drivers.sim.models.skin import Skin
 from perception.sensor_profile import SensorProfile
@@ -67,11 +68,17 @@ class Appearance:
     blur: float = 0.0  # Gaussian blur sigma, px
     occlusion: float = 0.0  # share of the window hidden behind a dark object (markers lose contrast)
     glare: float = 0.0  # share of the window washed out by a specular highlight
+    cast: tuple[float, float, float] = (1.0, 1.0, 1.0)  # B, G, R gains of the light (a colour cast)
 
     @property
     def plain(self) -> bool:
         """No lighting change, glare or blur: the noise-free image is the drawn layers as they are."""
-        return self.gain == 1.0 and not self.gradient and not self.glare and not self.blur
+        return self.gain == 1.0 and not self.gradient and not self.glare and not self.blur and self.white
+
+    @property
+    def white(self) -> bool:
+        """No colour cast."""
+        return self.cast == (1.0, 1.0, 1.0)
 
 
 @dataclass(frozen=True)
@@ -114,6 +121,8 @@ class SyntheticFingerVision:
     clutter: int = 14  # background shapes
     jitter_px: float = 0.0  # per-axis std of the markers' wander about the positions given to `render`, px
     jitter_persistence: float = 0.0  # lag-1 autocorrelation of that wander from frame to frame (AR(1))
+    background_tint: tuple[float, float, float] = (1.0, 1.0, 1.0)  # B, G, R gains of the clutter behind the skin
+    object_bgr: tuple[float, float, float] = OBJECT_BGR  # the object's colour
     _rng: np.random.Generator = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -127,7 +136,7 @@ class SyntheticFingerVision:
         self._window = np.clip(self.window_radius + 0.5 - rr, 0.0, 1.0)[:, :, None]  # soft rim
         self._background = self._scene()
         self._occluder_seed = int(self._rng.integers(1 << 31))
-        self._object = ObjectLayer(self._rng, self._window[:, :, 0])
+        self._object = ObjectLayer(self._rng, self._window[:, :, 0], self.object_bgr)
         self._noise_seed = int(self._rng.integers(1 << 31))
         self._painter = MarkerPainter(self.image_size, self._centre, self.window_radius, self.foreshortening)
         self._masks: dict[tuple[float, int], np.ndarray] = {}
@@ -176,6 +185,8 @@ class SyntheticFingerVision:
         mapy = (h / 2.0 + (self._yy - h / 2.0) * scale).astype(np.float32)
         img = cv2.remap(img, mapx, mapy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
         img *= (1.0 - 0.3 * np.clip(rn, 0, 1.2) ** 2)[:, :, None]
+        if self.background_tint != (1.0, 1.0, 1.0):
+            img *= np.asarray(self.background_tint, np.float32)
         return img * self._window + HOUSING_GREY * (1.0 - self._window)
 
     def _blob_mask(self, share: float, salt: int) -> np.ndarray:
@@ -263,7 +274,7 @@ class SyntheticFingerVision:
             self._squash = self._painter.squash(position)
             self._diameters = size * self._squash  # equivalent diameters of the squashed discs
             self._clean_key = None
-        key = (self._shown, look.gain, look.gradient, look.glare, look.blur)
+        key = (self._shown, look.gain, look.gradient, look.glare, look.blur, look.cast)
         if key == self._clean_key:
             return self._clean
         self._seen = self._visible(self._drawn_position, look)
@@ -274,6 +285,8 @@ class SyntheticFingerVision:
             if look.gain != 1.0 or look.gradient:
                 light = look.gain * (1.0 + look.gradient * (self._xx / self.image_size[0] - 0.5))
                 img *= light[:, :, None]
+            if not look.white:
+                img *= np.asarray(look.cast, np.float32)
             if look.glare > 0:
                 img += (self._blob_mask(look.glare, 2) * 1.2)[:, :, None] * (255.0 - img)
             if look.blur > 0:
@@ -346,6 +359,7 @@ class FingerRig:
     fps: float
     jitter_px: float = 0.0  # per-axis std of the drawn markers' rest wander (`drawn_jitter`)
     jitter_persistence: float = 0.0  # its lag-1 autocorrelation
+    look: Look = DEFAULT_LOOK  # lighting, background and object colour
 
 
 class PixelFinger:
@@ -359,35 +373,43 @@ class PixelFinger:
         # Small frames, one at a time: OpenCV's thread pool costs more than it gains on 320x240 images
         # (10-20 % more CPU time per pixel-mode tick with two threads on two cores).
         cv2.setNumThreads(1)
+        look = rig.look
         self.camera = SyntheticFingerVision(rig.origin, rig.marker_size, tuple(rig.image_size), seed=rig.seed,
-                                            jitter_px=rig.jitter_px, jitter_persistence=rig.jitter_persistence)
+                                            clutter=look.background_clutter, jitter_px=rig.jitter_px,
+                                            jitter_persistence=rig.jitter_persistence,
+                                            background_tint=look.background_tint, object_bgr=look.object_bgr)
+        self.appearance = Appearance(gain=look.brightness, gradient=look.gradient, glare=look.glare,
+                                     cast=look.colour_cast)
         self.pipeline = FingerVision(load_config(rig.preset, camera_fps=rig.fps), rig.finger)
         n = self.pipeline.config.calibration.n_frames
-        self.pipeline.calibrate([self.camera.render().image for _ in range(n)])
+        self.pipeline.calibrate([self.camera.render(appearance=self.appearance).image for _ in range(n)])
         # The object colour model, marked on three frames of a known object (the original's hand edit).
         for _ in range(3):
-            sample = self.camera.render(obj=ObjectInfo(True, 0.3, np.zeros(2), 0.0))
+            sample = self.camera.render(obj=ObjectInfo(True, 0.3, np.zeros(2), 0.0), appearance=self.appearance)
             self.pipeline.proximity.add_object(sample.image, sample.truth.object_mask)
 
     def process(self, position: np.ndarray, size: np.ndarray, obj: ObjectInfo | None, shift: float,
                 stamp: float) -> tuple[TactileState, np.ndarray]:
         """The pipeline's state of the frame showing markers at `position` and the object slid by `shift`
         px, and that frame."""
-        image = self.camera.render(position, size, obj, shift).image
+        image = self.camera.render(position, size, obj, shift, self.appearance).image
         return self.pipeline.process(image, stamp), image
 
 
-def finger_rigs(sensors: Mapping[str, SensorModel], clock: SimClock, seed: int, preset: str) -> dict[str, FingerRig]:
+def finger_rigs(sensors: Mapping[str, SensorModel], clock: SimClock, seed: int, preset: str,
+                look: Look = DEFAULT_LOOK) -> dict[str, FingerRig]:
     """Each finger's rig; camera seeds follow the sensor models' (`seed * 2 + i`); the markers are drawn
-    with the rest jitter of the sensor's profile (`drawn_jitter`)."""
+    with the rest jitter of the sensor's profile (`drawn_jitter`), the scene with the cell's `look`."""
     return {finger: FingerRig(finger, sensors[finger].origin, sensors[finger].marker_size,
                               tuple(sensors[finger].image_size), seed * 2 + i, preset, 1.0 / clock.period,
-                              drawn_jitter(sensors[finger].profile), sensors[finger].profile.jitter_persistence)
+                              drawn_jitter(sensors[finger].profile), sensors[finger].profile.jitter_persistence,
+                              look)
             for i, finger in enumerate(FINGERS)}
 
 
 def pixel_level_sense(world: World, sensors: Mapping[str, SensorModel], clock: SimClock, seed: int,
-                      preset: str = "fast", workers: bool | None = None) -> Callable[[], dict[str, TactileState]]:
+                      preset: str = "fast", workers: bool | None = None,
+                      look: Look = DEFAULT_LOOK) -> Callable[[], dict[str, TactileState]]:
     """Perception source of the simulated cell that renders each finger's frame and runs the real
     FingerVision pipeline on it (calibrated at start on frames with no contact).
 
@@ -397,10 +419,11 @@ def pixel_level_sense(world: World, sensors: Mapping[str, SensorModel], clock: S
     a real sensor. With `workers` (default: when
     the machine has two cores or more) the fingers are processed at the same time, as a real rig
     processes each camera on its own (`pixel_workers`); the states are the same either way. The
-    source's `close()` stops the workers."""
+    source's `close()` stops the workers. `look`: the cameras' lighting, background and object colour
+    (`drivers.sim.models.appearance`)."""
     from drivers.sim.models.pixel_workers import WORKER_FINGERS, FingerWorkers, parallel_by_default
 
-    rigs = finger_rigs(sensors, clock, seed, preset)
+    rigs = finger_rigs(sensors, clock, seed, preset, look)
     models = {finger: dataclasses.replace(sensors[finger], noise_px=0.0) for finger in FINGERS}
     fields = {finger: _field_of(models[finger]) for finger in FINGERS}
     shift = {finger: 0.0 for finger in FINGERS}
