@@ -12,7 +12,10 @@ push along the closing axis at all (a stiff gel, a camera set deep, an object fi
 pads' normal loads, read from the markers, do show it: when they differ from the grasp's by more
 than `unseen_force` for `unseen_time` while the area stays inside its dead band, the skill fails
 saying vision cannot follow the axis perpendicular to the skin (the paper's finding), instead of
-succeeding with the hand left behind; force_track follows that axis."""
+succeeding with the hand left behind; force_track follows that axis. It fails, too, when the pipeline
+warns that its object colour model matches more of the empty view than `max_false_object` of the
+object's own seen area (a background of the object's colour, glare): the centroid and area it would
+follow are then not the object's."""
 
 from __future__ import annotations
 
@@ -23,6 +26,7 @@ from behaviours.skill_kit.follow_me import TrackingSkill
 from behaviours.skill_kit.hand import hand_force
 from behaviours.skill_kit.registry import register
 from behaviours.skill_kit.sensor import sensor_profile
+from perception.fingervision import background_match_of
 
 
 @register
@@ -41,20 +45,25 @@ class ObjectTrack(TrackingSkill):
         "area_band": Param("float", "dead band about M_eps, share of M_eps", 0.05, min=0.0, max=1.0),
         "unseen_force": Param("float", "closing-axis push (difference of the pads' normal loads from the "
                               "grasp's, from the markers) that vision must see; 0 never checks", 8.0, "N", min=0.0),
+        "max_false_object": Param("float", "fail when a camera's colour model takes more than this share of the "
+                                  "object's own seen area of the empty view for the object (pipeline's warning)", 0.5,
+                                  min=0.0),
         "unseen_time": Param("float", "how long such a push may go unseen before the skill fails", 0.5, "s",
                              min=0.0),
         **TrackingSkill.COMMON,
     }
 
     def start(self):
-        area = force = 0.0
+        areas, force = np.zeros(2), 0.0
         for tick in range(self.p.reference_ticks):
             if tick:
                 yield
             left, right = self.tactile()
-            area += left.obj.area
+            areas += (left.obj.area, right.obj.area)
             force += hand_force(left, right)[1]
-        self._m_eps = self.p.m_eps or area / self.p.reference_ticks
+        areas /= self.p.reference_ticks
+        self._area0 = {"left": areas[0], "right": areas[1]}
+        self._m_eps = self.p.m_eps or areas[0]
         self._f0 = force / self.p.reference_ticks
         self._px_per_n = sensor_profile(self.cell).normal_px_per_n
         self._unseen_since: float | None = None
@@ -64,6 +73,12 @@ class ObjectTrack(TrackingSkill):
         return abs(area - self._m_eps) > self.p.area_band * self._m_eps
 
     def blind(self, left, right) -> str:
+        for state in (left, right):
+            match = background_match_of(state.health_reason)
+            if match > self.p.max_false_object * self._area0[state.finger]:
+                return (f"the {state.finger} camera cannot tell the object from its background (its colour model "
+                        f"takes {match:.1%} of the empty view for it, the object covers {self._area0[state.finger]:.1%}): "
+                        "the centroid and area to follow are not the object's")
         push = (hand_force(left, right)[1] - self._f0) / self._px_per_n  # N, from the pads' normal loads
         limit = self.p.unseen_force
         if "y" not in self.p.axes or not limit or abs(push) <= limit or self._area_steps(left.obj.area):

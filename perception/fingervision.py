@@ -8,6 +8,7 @@ with no contact (marker map and background), or load a saved marker map.
 from __future__ import annotations
 
 import dataclasses
+import re
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -32,6 +33,15 @@ from perception.wrench import wrench
 # Share of the empty view the object colour model may take for the object before every state warns
 # that the object's figures are unreliable (pixel mode's default look: 0; a held object: ~0.2).
 MAX_BACKGROUND_MATCH = 0.01
+OBJECT_UNRELIABLE = "object colour model matches"  # how that warning starts (`background_match_of` reads it)
+
+
+def background_match_of(reason: str) -> float:
+    """The share of the empty view a state's `health_reason` says the object colour model matches
+    (0.0 when it does not warn): what a skill that follows the object by vision weighs against the
+    object's own area."""
+    found = re.search(OBJECT_UNRELIABLE + r" ([0-9.]+)%", reason)
+    return float(found.group(1)) / 100.0 if found else 0.0
 
 
 class NotCalibratedError(FvtreeError, RuntimeError):
@@ -153,7 +163,7 @@ class FingerVision:
         match = self.proximity.background_match()
         if match <= MAX_BACKGROUND_MATCH:
             return ""
-        return (f"object colour model matches {match:.1%} of the empty view (glare, lighting or a background "
+        return (f"{OBJECT_UNRELIABLE} {match:.1%} of the empty view (glare, lighting or a background "
                 "of the object's colour): the object's area and centroid are unreliable; mark the object "
                 "again or change its colour or the background")
 

@@ -133,3 +133,21 @@ def test_object_track_fails_on_the_closing_axis_when_the_gel_does_not_show_the_p
     """A gel 4x stiffer than the simulated gripper's: the area changes too little; the skill says so."""
     closing = followme("y", "pull", "FAILURE", pad_stiffness=20000.0)
     assert "vision cannot follow the axis perpendicular to the skin" in closing["feedback"]
+
+
+def test_object_track_fails_when_the_camera_cannot_tell_the_object_from_its_background():
+    """The pipeline's warning (perception/fingervision.py) on a healthy state: vision has nothing to follow."""
+    from perception.fingervision import OBJECT_UNRELIABLE
+    from perception.state import TactileState
+
+    def warned(state, share):
+        return TactileState(state.finger, state.stamp, state.markers, state.force, state.torque, state.obj,
+                            state.slip, True, f"{OBJECT_UNRELIABLE} {share:.1%} of the empty view (...)")
+
+    for share, status in ((0.1, "SUCCESS"), (0.2, "FAILURE")):  # the object covers 0.3: a third, two thirds
+        h = one_skill("{duration: 1.0, reference_ticks: 3, max_false_object: 0.5}")
+        h.script(lambda tick, t, share=share: seen() if tick < 5 else {"left": seen()["left"],
+                                                                        "right": warned(seen()["right"], share)})
+        assert h.run_until_done(200).name == status
+    assert "the right camera cannot tell the object from its background" in h.feedback("s")
+    assert "20.0% of the empty view for it, the object covers 30.0%" in h.feedback("s")

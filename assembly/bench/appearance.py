@@ -5,8 +5,9 @@ drawn at random, runs the real pipeline on it as pixel mode does (calibrated on 
 the object's colour marked on three of its frames) and writes appearance.md (or prints it): per
 variation, the markers calibrated and tracked, whether the states say healthy, the object seen with
 nothing in view, and the object's area and centroid as seen against the drawn truth while a 10 N
-contact presses it. What breaks the pipeline is a row whose markers or object go wrong, and whether
-its states say so is the `healthy` column.
+contact presses it. What breaks the pipeline is a row whose markers or object go wrong; whether its
+states say so is in the `healthy` and `object warned` columns (the share of the empty view the
+object colour model matches, as the warning gives it: `warned match`).
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import numpy as np
 from drivers.sim.models.appearance import DEFAULT_LOOK, Look, draw_look
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
 from drivers.sim.models.synthetic_camera import FingerRig, PixelFinger, drawn_jitter
+from perception.fingervision import background_match_of
 from perception.state import ObjectInfo
 
 OBJECT = ObjectInfo(True, 0.3, np.array([0.05, -0.03]), 0.2)  # the held object as the scenes show it
@@ -75,8 +77,8 @@ def measure(look: Look, seed: int = 0) -> dict:
             "empty view's object area": round(float(np.median([s.obj.area for s in empty])), 4),
             "object seen": round(len(seen) / len(pressed), 3), "area seen / drawn": round(area, 3),
             "centroid error": round(centroid, 4),
-            "object warned": round(float(np.mean(["object colour model matches" in s.health_reason
-                                                  for s in pressed])), 3)}
+            "object warned": round(float(np.mean([background_match_of(s.health_reason) > 0.0 for s in pressed])), 3),
+            "warned match": round(max(background_match_of(s.health_reason) for s in pressed), 4)}
 
 
 def table(rows: dict[str, dict]) -> str:

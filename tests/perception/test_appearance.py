@@ -99,3 +99,4 @@ def test_the_pipeline_warns_when_the_object_colour_matches_the_empty_view():
     assert default["object seen in an empty view"] == 0.0
     assert grey["object seen in an empty view"] == 1.0 and grey["area seen / drawn"] > 1.5
     assert grey["object warned"] == 1.0 and grey["healthy"] == 1.0  # the markers are fine; the object is not
+    assert grey["warned match"] == pytest.approx(grey["empty view's object area"], abs=0.01)
