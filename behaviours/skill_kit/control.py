@@ -31,25 +31,31 @@ def speed_ctrl_gain(v_min: float, v_max: float, f_min: float, f_max: float) -> f
 
 class ForceChangeDetector:
     """Fires when more than `min_markers` markers moved more than `threshold` from the
-    reference field taken over the first `reference_frames` frames (2023 gentle-grasp rule)."""
+    reference field taken over the first `reference_frames` frames (2023 gentle-grasp rule).
+    Each finger's markers are compared with its own reference, index by index: markers the pipeline
+    adopts after the reference (it appends markers missed at calibration, e.g. under glare) have no
+    reference and are not counted."""
 
     def __init__(self, threshold: float, min_markers: int, reference_frames: int = 3):
         self.threshold = threshold
         self.min_markers = min_markers
         self.reference_frames = reference_frames
-        self._ref: list[np.ndarray] = []
-        self._mean: np.ndarray | None = None  # the reference field, once its frames are in
+        self._ref: list[tuple[np.ndarray, ...]] = []
+        self._mean: list[np.ndarray] | None = None  # per finger, the reference field once its frames are in
         self.changed = 0
 
     def update(self, *marker_forces: np.ndarray) -> bool:
         """Feed this frame's per-marker forces (one array per finger); True when it fires."""
-        f = np.concatenate(marker_forces)
         if len(self._ref) < self.reference_frames:
-            self._ref.append(f)
+            self._ref.append(marker_forces)
             return False
         if self._mean is None:  # averaged once: the reference frames do not change after
-            self._mean = np.mean(self._ref, axis=0)
-        self.changed = int(np.count_nonzero(np.linalg.norm(f - self._mean, axis=1) > self.threshold))
+            counts = [min(len(frame[i]) for frame in self._ref) for i in range(len(marker_forces))]
+            self._mean = [np.mean([frame[i][:n] for frame in self._ref], axis=0) for i, n in enumerate(counts)]
+        self.changed = 0
+        for f, mean in zip(marker_forces, self._mean):
+            n = min(len(f), len(mean))
+            self.changed += int(np.count_nonzero(np.linalg.norm(f[:n] - mean[:n], axis=1) > self.threshold))
         return self.changed > self.min_markers
 
 
