@@ -6,7 +6,9 @@ hand through the gel (elastic shear, then sliding beyond friction) and, along th
 through the pads' normal stiffness. The cameras see the block shift along the pads (centroid,
 with noise); along the closing axis the pads touch it, so it cannot shift in the view, but
 pressed harder into one pad it flattens more of that gel: the area a pad sees grows with its
-normal load as a Hertz contact's does (load^(2/3)).
+normal load as a Hertz contact's does (load^(2/3)). The block's material (scene arg `object`,
+`drivers.sim.models.objects`) sets its friction and adhesion on the pads and how far the markers
+move per newton.
 """
 
 from __future__ import annotations
@@ -18,8 +20,18 @@ from typing import ClassVar
 import numpy as np
 
 from drivers.protocols import SceneArm, SceneGripper
+from drivers.sim.models.objects import GrippedObject
 from drivers.sim.scenes.base import Scene
-from drivers.sim.scenes.grip import Grip, empty_contacts, pad_contacts, pad_view, slip_signal, step_hand, tool_rotation
+from drivers.sim.scenes.grip import (
+    Grip,
+    empty_contacts,
+    object_grip,
+    pad_contacts,
+    pad_view,
+    slip_signal,
+    step_hand,
+    tool_rotation,
+)
 
 AXES = "xyz"
 
@@ -48,6 +60,7 @@ class FollowMeScene(Scene):
     vision_noise: float = 0.01  # std of the centroid, image fraction
     seed: int = 0
     grip: Grip = field(default_factory=Grip)
+    material: GrippedObject | None = None  # the block's (None: neutral, the cell's friction)
 
     def __post_init__(self):
         self._dt = 0.0  # s, length of the last tick (slip is motion per camera frame)
@@ -125,7 +138,8 @@ class FollowMeScene(Scene):
         normals = self.normals()
         views = tuple(pad_view(side, self.pressed_area(normal), centroid) for side, normal in zip((-1.0, 1.0), normals))
         slip = slip_signal(self._seen_speed, self.area, self._dt)
-        return pad_contacts(normals, self._force, 0.0, views, slip)
+        gain = self.material.marker_gain if self.material is not None else 1.0
+        return pad_contacts(normals, self._force, 0.0, views, slip, gain=gain)
 
     def pressed_area(self, normal: float) -> float:
         """Share of a pad's image the block covers under `normal` N: `area` at the grasp's own
@@ -163,7 +177,9 @@ class FollowMeScene(Scene):
 
 
 def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> FollowMeScene:
-    """Scene args: axis (x|y|z, tool axes), direction (pull|push), distance (m), move_time (s)."""
+    """Scene args: axis (x|y|z, tool axes), direction (pull|push), distance (m), move_time (s),
+    object (wood, glass, rubber, foam, steel; default a neutral block with the cell's friction)."""
+    grip, material = object_grip(args, world)
     return FollowMeScene(arm, gripper, axis=args.get("axis", "x"), direction=args.get("direction", "pull"),
                          distance=args.get("distance", 0.12), move_time=args.get("move_time", 4.0),
-                         seed=seed, grip=Grip(friction=world.get("friction", 0.8)))
+                         seed=seed, grip=grip, material=material)
