@@ -179,13 +179,13 @@ class Runner:
         design bridge logs `event` at `where` (default: the tip) with `data`."""
         self.tip(self.behaviour_tree)
         self.stop_policy.halt(self.behaviour_tree.root, where or self.tip.path, event, **data)
-        self.come_to_rest()
         if self.log:
             self.log.record(self.ticks)
         if self.recorder:
             if self.bridge is None:  # no event log for the recorder to read: tell it
                 self.recorder.event(event, where=where or self.tip.path, **data)
             self.recorder.record(self.ticks)
+        self.come_to_rest()  # after the records: they keep one tick a period
 
     def come_to_rest(self, limit: float = 2.0) -> None:
         """On a simulated cell, let the world run on (without ticking the tree) until the arm and the
