@@ -22,9 +22,10 @@ from perception.learning.features import columns, feature_spec, tick_features
 
 
 def record_run(tree_path: str | Path, cell: str = "sim", seed: int = 0, max_time: float = 3600.0,
-               perception: str | None = None) -> Dataset:
+               perception: str | None = None, scene_args: Mapping[str, Any] | None = None) -> Dataset:
     """Run the tree once (simulated perception from contact `signals` or rendered `pixels`, or the
-    cell's own) and return its per-tick dataset; RuntimeError if the run fails."""
+    cell's own; `scene_args` over the tree's, e.g. the pressed object) and return its per-tick
+    dataset; RuntimeError if the run fails."""
     rows: list[np.ndarray] = []
     stamps: list[float] = []
     labels: list[dict] = []
@@ -45,7 +46,7 @@ def record_run(tree_path: str | Path, cell: str = "sim", seed: int = 0, max_time
         return states
 
     options = RunOptions(cell=cell, seed=seed, perception=perception, max_time=max_time, runs_dir=None,
-                         record=False, plots=False, quiet=True, supervised=False)
+                         record=False, plots=False, quiet=True, supervised=False, scene_args=dict(scene_args or {}))
     with Run(tree_path, options, sense=sense) as run:
         result = run.loop()
         world, doc = world_of(run.cell), run.doc
@@ -55,7 +56,8 @@ def record_run(tree_path: str | Path, cell: str = "sim", seed: int = 0, max_time
                            f"{result.where}: {result.message}")
     names = sorted(set().union(*labels)) if labels else []
     header = {"source": {"tree": str(tree_path), "cell": cell, "scene": doc.scene, "seeds": [seed],
-                         "perception": perception or "cell default"},
+                         "perception": perception or "cell default", **({"scene_args": dict(scene_args)}
+                                                                         if scene_args else {})},
               "feature_spec": feature_spec(), "columns": columns(),
               "label_info": world.label_info()}
     return Dataset(header, np.array(stamps), np.zeros(len(rows), np.int32), np.array(segments, np.int32),
@@ -63,10 +65,10 @@ def record_run(tree_path: str | Path, cell: str = "sim", seed: int = 0, max_time
 
 
 def record(tree_path: str | Path, out: str | Path, cell: str = "sim", seed: int = 0, runs: int = 1,
-           perception: str | None = None) -> Path:
+           perception: str | None = None, scene_args: Mapping[str, Any] | None = None) -> Path:
     """Record `runs` runs (seeds seed, seed+1, ...) of a tree into one file at `out` (a located
     error, exit 2, when it cannot be written)."""
-    parts = [record_run(tree_path, cell, seed + i, perception=perception) for i in range(runs)]
+    parts = [record_run(tree_path, cell, seed + i, perception=perception, scene_args=scene_args) for i in range(runs)]
     header = {**parts[0].header, "source": {**parts[0].header["source"], "seeds": list(range(seed, seed + runs))}}
     try:
         return Dataset.concatenate(parts, header).save(out)

@@ -21,6 +21,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import yaml
+
 from fvfiles.errors import FvtreeError, did_you_mean
 from fvfiles.yaml_source import Located, SourceError, load_file
 
@@ -150,6 +152,22 @@ def load_profile(name_or_path: str = DEFAULT_PROFILE) -> SensorProfile:
         return SensorProfile(**values, sources=sources)
     except SensorProfileError as exc:
         raise SensorProfileError(exc.message, str(path)) from None
+
+
+def save_profile(profile: SensorProfile, path: str | Path) -> Path:
+    """Write `profile` in the packaged profiles' format (every number as {value, source}); a number
+    without a source is refused, as `load_profile` would refuse it."""
+    doc: dict[str, Any] = {"name": profile.name}
+    for key, value in profile.as_dict().items():
+        if key == "name":
+            continue
+        source = profile.sources.get(key, "").strip()
+        if not source:
+            raise SensorProfileError("a number without its source cannot be written", str(path), field=key)
+        doc[key] = {"value": list(value) if key == "image_size" else value, "source": source}
+    path = Path(path)
+    path.write_text(yaml.safe_dump(doc, sort_keys=False, width=110, allow_unicode=True))
+    return path
 
 
 _cache: dict[str, SensorProfile] = {}

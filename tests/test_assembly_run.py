@@ -89,7 +89,7 @@ def test_estop_halts_then_resume_skips_placed_elements(tmp_path):
 
 
 def test_a_resume_never_picks_again_an_element_left_being_released(tmp_path, capsys):
-    first = run_tree(ASSEMBLY, RunOptions(runs_dir=tmp_path, estop_at=109.6, quiet=True, plots=False))
+    first = run_tree(ASSEMBLY, RunOptions(runs_dir=tmp_path, estop_at=114.7, quiet=True, plots=False))
     assert first.status == "ESTOP" and first.where.endswith("/prop/place")
     assert first.elements["E1"]["status"] == "placing"
     assert main(["run", ASSEMBLY, "--runs-dir", str(tmp_path), "--resume"]) == 2

@@ -78,9 +78,9 @@ def _start(run_dir: Path) -> int:
 
 @pytest.fixture(scope="module")
 def assembly(tmp_path_factory) -> tuple[Path, dict, dict, dict]:
-    """The simulated assembly cut short after placing E1 (113 s of cell time: E1 is placed at about 110 s), exported by the CLI:
+    """The simulated assembly cut short after placing E1 (120 s of cell time: E1 is placed at about 119 s), exported by the CLI:
     (run directory, summary, topic -> schema, topic -> messages)."""
-    run_dir = _run("assembly.yaml", tmp_path_factory.mktemp("runs"), max_time=113.0)
+    run_dir = _run("assembly.yaml", tmp_path_factory.mktemp("runs"), max_time=120.0)
     assert main(["export", str(run_dir)]) == 0
     return (run_dir, json.loads((run_dir / "summary.json").read_text()), *_read(run_dir / "recording.mcap"))
 
@@ -327,7 +327,9 @@ def test_ros2_topics_counts_and_wall_clock_stamps(assembly, ros2_assembly):
     types, messages = ros2_assembly
     assert types == ROS2_TOPICS
     start = _start(run_dir)
-    end = start + round((summary["ticks"] + 1) * PERIOD_NS)  # the run's span: its start plus its cell time
+    # the run's span: its start plus its cell time (a halted run's includes the arm braking to rest
+    # after its last tick, the end event logged then; sim_time_s is rounded to 1 ms)
+    end = start + round(max((summary["ticks"] + 1) * PERIOD_NS, (summary["sim_time_s"] + 0.001) * 1e9 + PERIOD_NS))
     for topic in ("/robot/pose", "/robot/wrench", "/gripper/joint_states", "/cell/time", "/fv/left/wrench",
                   "/fv/right/wrench"):
         assert len(messages[topic]) in (summary["ticks"], summary["ticks"] + 1), topic  # one a tick

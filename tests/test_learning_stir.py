@@ -32,7 +32,9 @@ def test_the_recording_is_cut_into_labelled_trials(stirred):
 def test_stirlearn_tells_the_substances_apart(stirred):
     model, report = train_stir(stirred)
     assert report["test_trials"] == 19 and report["train_trials"] == 29
-    assert report["models"][PAPER_MODEL]["f1"] >= 0.8  # 29 training trials of one session, with the pipeline's errors
+    # 29 training trials of one session, with the pipeline's errors; 0.78 since the arm accelerates at
+    # 0.5 m/s^2 as a UR does (the fast circles and the spiral ask 0.53-0.59 m/s^2: their paths round off)
+    assert report["models"][PAPER_MODEL]["f1"] >= 0.75
     assert set(report["models"]) >= {PAPER_MODEL, "logistic_regression", "svm_rbf", "random_forest"}
     assert list(model.estimator.classes_) == ["flour", "peas", "sugar"]
 

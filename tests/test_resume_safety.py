@@ -41,7 +41,7 @@ def placings(run_dir: Path) -> dict[str, int]:
 
 @pytest.fixture(scope="module")
 def stopped_after_e1(tmp_path_factory) -> Path:
-    """A run e-stopped at 140 s of cell time: E1 placed (114 s), E2 not begun (copied by each test)."""
+    """A run e-stopped at 140 s of cell time: E1 placed (119 s), E2 not begun (copied by each test)."""
     runs = tmp_path_factory.mktemp("runs")
     first = run_tree(ASSEMBLY, RunOptions(runs_dir=runs, estop_at=140.0, **QUIET))
     assert first.status == "ESTOP" and placings(Path(first.run_dir)) == {"E1": 1}

@@ -22,7 +22,7 @@ def test_every_scene_is_listed_with_what_it_simulates_and_its_demo_trees(capsys)
     for name in SCENES:
         assert f"\n{name}: " in f"\n{out}"
     assert "hold: The hold scene: a box stands between the open fingers" in out
-    assert "    params: Scene args: mass (kg), extra_load (N)." in out
+    assert "    params: Scene args: mass (kg), extra_load (N), object (wood, glass, rubber, foam, steel;" in out
     assert "(preset='inhand_light')" in out  # a builder made by a factory says how it was made
     assert main(["scenes", "--json"]) == 0
     scenes = json.loads(capsys.readouterr().out)

@@ -19,6 +19,17 @@ def add_commands(sub: Subparsers) -> None:
     add_perception_option(rec)
     rec.set_defaults(func=cmd_record)
 
+    cal = sub.add_parser("calibrate-sensor", help="measure the fingertips' gains and rest noise against known loads "
+                                                  "(the press scene's scale) and write a sensor profile a cell "
+                                                  "file can name (sensor: {profile: PATH})")
+    cal.add_argument("--out", required=True, help="sensor profile to write (.yaml)")
+    add_cell_option(cal)
+    cal.add_argument("--seed", type=SEED, default=0)
+    cal.add_argument("--object", default=None, help="what the pressed stick is made of (wood, glass, rubber, foam, "
+                                                    "steel; default the scene's neutral stick)")
+    add_perception_option(cal)
+    cal.set_defaults(func=cmd_calibrate_sensor)
+
     il = sub.add_parser("import-log", help="turn BlobMoves marker logs of other FingerVision software (one trial "
                                            "per JSON or YAML file) into a recording for fvtree train")
     il.add_argument("logs", nargs="+", type=existing_file, metavar="LOG")
@@ -40,6 +51,20 @@ def cmd_record(args) -> int:
     from assembly.dataset_recorder import record
 
     print(f"wrote {record(args.tree, args.out, cell=args.cell, seed=args.seed, runs=args.runs, perception=args.perception)}")
+    return 0
+
+
+def cmd_calibrate_sensor(args) -> int:
+    from assembly.sensor_calibration import run
+    from drivers.sim.models.objects import OBJECTS
+
+    if args.object is not None and args.object not in OBJECTS:
+        raise FvtreeError(f"--object: no object {args.object!r}; known: {', '.join(sorted(OBJECTS))}")
+    path, cal = run(args.out, cell=args.cell, seed=args.seed, perception=args.perception,
+                    scene_args={} if args.object is None else {"object": args.object})
+    print(f"normal {cal.normal_px_per_n:.4f} px/N, shear {cal.shear_px_per_n:.4f} px/N, rest jitter "
+          f"{cal.rest_jitter_px:.4f} px (persistence {cal.jitter_persistence:.2f})")
+    print(f"wrote {path}")
     return 0
 
 

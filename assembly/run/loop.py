@@ -233,6 +233,20 @@ class Runner:
             if self.bridge is None:  # no event log for the recorder to read: tell it
                 self.recorder.event(event, where=where or self.tip.path, **data)
             self.recorder.record(self.ticks)
+        self.come_to_rest()  # after the records: they keep one tick a period
+
+    def come_to_rest(self, limit: float = 2.0) -> None:
+        """On a simulated cell, let the world run on (without ticking the tree) until the arm and the
+        gripper are at rest, at most `limit` s of cell time: a stopped arm brakes over its latency and
+        deceleration, as a UR does (`drivers/sim/devices/arm_motion.py`), and the run ends once it
+        stands. A real cell's devices brake on their own time."""
+        if not self.cell.simulated:
+            return
+        for _ in range(round(limit / self.cell.clock.period)):
+            if not (self.cell.arm.is_moving() or self.cell.gripper.is_moving()):
+                return
+            self.cell.arm.kick()  # the runner is alive: only the tree is not ticked
+            self.cell.step()
 
     def _stopped(self, stop: Stop, start: float) -> RunResult:
         where = stop.where or self.tip.path

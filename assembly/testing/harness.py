@@ -227,8 +227,14 @@ class TreeHarness:
         raise AssertionError(f"tree still RUNNING after {max_ticks} ticks at {self.tip()}")
 
     def halt(self) -> None:
-        """What Ctrl-C does: stop every running node, the arm and the gripper."""
+        """What Ctrl-C does: stop every running node, the arm and the gripper (and, on a simulated
+        cell, let them come to rest)."""
         self._run.halt()
+
+    def settle(self) -> None:
+        """Step the cell, not the tree, until the arm and the gripper are at rest (at most 2 s): a
+        stopped arm brakes over its latency and deceleration before it stands."""
+        self._run.runner.come_to_rest()
 
     @property
     def ticks(self) -> int:

@@ -299,6 +299,7 @@ def halting_stops_the_devices(cls: type[Skill], params: Params) -> None:
         raise ContractBroken(f"it commanded nothing in {HALT_WITHIN} ticks",
                              "command the arm or the gripper within its first ticks")
     h.tree.root.stop(Status.INVALID)
+    h.settle()  # a stopped arm brakes before it stands
     problems = []
     if h.status(SKILL_PATH) != "INVALID":
         problems.append(f"halted, it is {h.status(SKILL_PATH)}, not INVALID")

@@ -1,5 +1,5 @@
-"""Build the simulated cell from a `kind: sim` cell file and the scene a tree needs: a kinematic arm
-and a gripper with compliant gels, both behind the real safety layer, the scene around them and its
+"""Build the simulated cell from a `kind: sim` cell file and the scene a tree needs: an arm with a
+UR controller's latency and acceleration limits (the file's `arm:` section) and a gripper with compliant gels, both behind the real safety layer, the scene around them and its
 FingerVision perception (from contact signals carrying the real pipeline's measured errors, or
 rendered frames through the real pipeline). The
 file's `supervision` section is read by the run's cell supervisor (assembly/run/supervisor.py)."""
@@ -17,13 +17,14 @@ from drivers.clock import SimClock
 from drivers.safe_gripper import SafeGripper
 from drivers.safety import SafeArm, SafetyLimits
 from drivers.sim.devices.arm import KinematicArm
+from drivers.sim.devices.arm_motion import ArmMotion
 from drivers.sim.devices.gripper import SimGripper
 from drivers.sim.models.appearance import Look, look_from
 from drivers.sim.models.force_sensor import ForceSensedArm, ForceSensorConfig
 from drivers.sim.scenes import build_world, world_settings
 
 FIELDS = {"kind", "name", "home", "safety", "supervision", "gripper", "sensor", "world", "perception", "pixel_workers",
-          "force_sensor"}
+          "force_sensor", "arm"}
 PERCEPTION_MODES = ("signals", "pixels")
 
 
@@ -43,7 +44,8 @@ def build_sim_cell(path: Path, data: dict, request: CellRequest) -> Cell:
                                                    f"or more), got {workers!r}")
     clock = SimClock(1.0 / request.tick_hz)
     home = np.array(data.get("home", [0.0, 0.0, 0.5, np.pi, 0.0, 0.0]), dtype=float)
-    arm = KinematicArm(clock, home)
+    # The arm answers as a UR controller: after a command latency, within acceleration limits.
+    arm = KinematicArm(clock, home, motion=config_from(path, "arm", ArmMotion, section(path, data, "arm")))
     gripper = SimGripper(**section(path, data, "gripper", known={"max_width", "gel_stiffness", "max_speed"}))
     settings = world_settings(path, data)
     look = _look(path, settings[0].get("appearance"), request.seed)  # checked in both modes, used in pixel mode

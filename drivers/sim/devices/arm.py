@@ -1,17 +1,24 @@
-"""Kinematic arm: commanded linear moves and twists integrated once per tick, with limits."""
+"""The simulated arm: commanded linear moves and twists, with a UR controller's command latency and
+acceleration limits (`drivers.sim.devices.arm_motion`; none by default: the kinematic arm)."""
 
 from __future__ import annotations
 
 import math
+from collections import deque
 
 import numpy as np
 
 from drivers.protocols import Clock
+from drivers.sim.devices.arm_motion import CONTROL_PERIOD, IDEAL, ArmMotion, approach_speed, ramp
 from drivers.sim.transforms import matrix_to_rotvec, rotvec_to_matrix
+
+ZERO = [0.0, 0.0, 0.0]
 
 
 class KinematicArm:
-    """A TCP that moves exactly as commanded, within its own speed limits (no dynamics)."""
+    """A TCP that moves as commanded, within its speed limits and, with `motion`, a command latency
+    and acceleration limits: a command takes effect `motion.latency` s after it is sent, then the
+    TCP's velocity ramps towards it (sub-stepped at the controller's 2 ms cycle while it changes)."""
 
     def __init__(
         self,
@@ -19,15 +26,23 @@ class KinematicArm:
         pose: np.ndarray,
         max_speed: float = 1.0,
         max_angular_speed: float = 1.5,
+        motion: ArmMotion = IDEAL,
     ):
         self.clock = clock
         self._pose = np.array(pose, dtype=float)
         self.max_speed = max_speed
         self.max_angular_speed = max_angular_speed
-        self._twist = [0.0] * 6  # commanded twist (speed mode)
-        self._target: np.ndarray | None = None  # commanded pose (move mode)
+        self.motion = motion
+        self._twist = [0.0] * 6  # commanded twist in effect (speed mode)
+        self._target: np.ndarray | None = None  # commanded pose in effect (move mode)
         self._target_speed = 0.0
-        self._velocity = [0.0] * 6  # what the TCP actually did last step
+        self._stopping = False  # a stop in effect: decelerate at motion.stop_deceleration
+        self._turned = False  # the move in effect has reached its orientation
+        self._pending: deque[tuple[float, str, tuple]] = deque()  # (due, command, args) sent, not yet in effect
+        self._t = 0.0  # the arm's own time: the sum of its steps
+        self._v = list(ZERO)  # TCP linear velocity (m/s, base frame)
+        self._w = list(ZERO)  # TCP angular velocity (rad/s, base frame)
+        self._velocity = [0.0] * 6  # what the TCP did at the end of the last step
         self.external_wrench = np.zeros(6)  # set by the scene from contacts
         self.fault_text: str | None = None
 
@@ -45,68 +60,140 @@ class KinematicArm:
         return self.clock.now()
 
     def move_linear(self, pose: np.ndarray, speed: float) -> None:
-        self._target = np.array(pose, dtype=float)
-        self._target_speed = min(float(speed), self.max_speed)
-        self._twist = [0.0] * 6
+        self._send("move", (np.array(pose, dtype=float), min(float(speed), self.max_speed)))
 
     def speed_linear(self, twist: np.ndarray) -> None:
-        self._target = None
-        self._twist = np.array(twist, dtype=float).tolist()
+        self._send("twist", (np.array(twist, dtype=float).tolist(),))
 
     def is_moving(self) -> bool:
-        return self._target is not None or any(self._twist)
+        """Moving, or about to: a motion command sent and not yet in effect counts."""
+        if any(kind == "move" or (kind == "twist" and any(args[0])) for _, kind, args in self._pending):
+            return True
+        return self._target is not None or any(self._twist) or any(self._v) or any(self._w)
 
     def stop(self) -> None:
-        self._target = None
-        self._twist = [0.0] * 6
+        self._send("stop", ())
 
     def fault(self) -> str | None:
         return self.fault_text
 
+    def braking_distance(self, speed: float) -> float:
+        """Metres the TCP travels after a command to slow from `speed` m/s is sent: the latency at
+        that speed, then the ramp to rest (what the safety layer adds to its look-ahead at the box)."""
+        accel = self.motion.acceleration
+        return speed * self.motion.latency + (speed * speed / (2.0 * accel) if accel > 0.0 else 0.0)
+
+    # Commands in flight -----------------------------------------------------------------
+    def _send(self, kind: str, args: tuple) -> None:
+        if self.motion.latency <= 0.0:
+            self._apply(kind, args)
+        else:
+            self._pending.append((self._t + self.motion.latency, kind, args))
+
+    def _apply(self, kind: str, args: tuple) -> None:
+        """Put a command in effect."""
+        self._target, self._twist, self._stopping = None, [0.0] * 6, False
+        if kind == "move":
+            self._target, self._target_speed = args
+            self._turned = False
+        elif kind == "twist":
+            self._twist = args[0]  # a zero twist ramps down at the acceleration, as speedL does
+        else:
+            self._stopping = True
+        decel = self.motion.stop_deceleration if self._stopping else self.motion.acceleration
+        if decel <= 0.0 and not any(self._twist) and self._target is None:
+            self._v, self._w, self._velocity = list(ZERO), list(ZERO), [0.0] * 6  # stops at once
+            self._stopping = False
+
+    def _apply_due(self, t: float) -> float:
+        """Put the commands due by `t` in effect; the time the next one falls due (inf: none)."""
+        while self._pending and self._pending[0][0] <= t + 1e-12:
+            _, kind, args = self._pending.popleft()
+            self._apply(kind, args)
+        return self._pending[0][0] if self._pending else math.inf
+
     # Simulation -------------------------------------------------------------------------
     def step(self, dt: float) -> None:
         """Move the TCP for `dt` seconds (on Python floats: numpy costs more than it saves on 3 numbers)."""
-        before = self._pose.tolist()
-        if self._target is not None:
-            self._step_towards_target(dt, before)
-        elif any(self._twist):
-            self._step_twist(dt, before)
-        after = self._pose.tolist()
-        self._velocity[:3] = [(after[0] - before[0]) / dt, (after[1] - before[1]) / dt, (after[2] - before[2]) / dt]
-
-    def _step_twist(self, dt: float, p: list[float]) -> None:
-        """Move from pose `p` at the commanded twist, its speed capped."""
-        (vx, vy, vz), w = self._twist[:3], self._twist[3:]
-        n = math.hypot(vx, vy, vz)
-        if n > self.max_speed:
-            k = self.max_speed / n
-            vx, vy, vz = vx * k, vy * k, vz * k
-        self._pose[:3] = [p[0] + vx * dt, p[1] + vy * dt, p[2] + vz * dt]
-        if any(w):
-            rot = rotvec_to_matrix([x * dt for x in w]) @ rotvec_to_matrix(p[3:])
-            self._pose[3:] = matrix_to_rotvec(rot)
-
-    def _step_towards_target(self, dt: float, p: list[float]) -> None:
-        """Move from pose `p` towards the commanded pose at the commanded speed; turn within the limit."""
-        target = self._target.tolist()
-        delta = [target[0] - p[0], target[1] - p[1], target[2] - p[2]]
-        dist = math.hypot(*delta)
-        reach = self._target_speed * dt
-        if dist <= reach:
-            self._pose[:3] = target[:3]
-        else:
-            k = reach / dist
-            self._pose[:3] = [p[0] + delta[0] * k, p[1] + delta[1] * k, p[2] + delta[2] * k]
-        arrived_rot = True
-        if max(abs(target[3] - p[3]), abs(target[4] - p[4]), abs(target[5] - p[5])) > 1e-9:
-            cur = rotvec_to_matrix(p[3:])
-            err = matrix_to_rotvec(rotvec_to_matrix(target[3:]) @ cur.T)
-            angle = math.hypot(*err.tolist())
-            max_step = self.max_angular_speed * dt
-            if angle > max_step:
-                err *= max_step / angle
-                arrived_rot = False
-            self._pose[3:] = matrix_to_rotvec(rotvec_to_matrix(err) @ cur)
-        if dist <= reach and arrived_rot:
-            self._pose[3:] = target[3:]
+        t, end = self._t, self._t + dt
+        turn = list(ZERO)  # rotation vector turned in this step (the axis barely changes within a tick)
+        while end - t > 1e-12:
+            due = self._apply_due(t)
+            h = min(end, due) - t
+            h = self._advance(h, turn)
+            t += h
+        self._t = end
+        self._apply_due(end)
+        if self._target is not None and self._turned:
+            self._pose[3:] = self._target[3:]  # exactly: rotation vectors near pi carry 1e-5 of rounding
+        elif any(turn):
+            self._pose[3:] = matrix_to_rotvec(rotvec_to_matrix(turn) @ rotvec_to_matrix(self._pose[3:]))
+        if self._target is not None and self._turned and not any(self._v) and self._pose.tolist()[:3] == self._target.tolist()[:3]:
             self._target = None
+        self._velocity = self._v + self._w
+
+    def _advance(self, h: float, turn: list[float]) -> float:
+        """Move for at most `h` s under the command in effect, adding the rotation to `turn`; returns
+        the time taken (a controller cycle while the velocity changes, else all of `h`)."""
+        p = self._pose.tolist()
+        motion = self.motion
+        accel, ang_accel = (motion.stop_deceleration,) * 2 if self._stopping else (
+            motion.acceleration, motion.angular_acceleration)
+        left, axis, angle = list(ZERO), list(ZERO), 0.0
+        if self._target is not None:
+            target = self._target.tolist()
+            left = [target[0] - p[0], target[1] - p[1], target[2] - p[2]]
+            dist = math.hypot(*left)
+            speed = approach_speed(dist, self._target_speed, accel, h)
+            v_goal = [x / dist * speed for x in left] if dist > 1e-12 else list(ZERO)
+            axis, angle = (list(ZERO), 0.0) if self._turned else self._rotation_left(target, turn)
+            rate = approach_speed(angle, self.max_angular_speed, ang_accel, h)
+            w_goal = [a * rate for a in axis]
+            steady = (speed == self._target_speed and _close(v_goal, self._v) and not angle and not any(self._w)
+                      and self._target_speed * h + _stopping(speed, accel) < dist)
+        elif self._stopping:
+            v_goal, w_goal, steady = list(ZERO), list(ZERO), False
+        else:
+            vx, vy, vz = self._twist[:3]
+            n = math.hypot(vx, vy, vz)
+            k = self.max_speed / n if n > self.max_speed else 1.0
+            v_goal, w_goal = [vx * k, vy * k, vz * k], list(self._twist[3:])
+            steady = _close(v_goal, self._v) and _close(w_goal, self._w)
+        if not (steady or motion.ideal):
+            h = min(h, CONTROL_PERIOD)
+        v0 = self._v
+        self._v = ramp(v0, v_goal, accel * h)
+        self._w = ramp(self._w, w_goal, ang_accel * h)
+        step = [(a + b) * 0.5 * h for a, b in zip(v0, self._v)] if accel > 0.0 else [b * h for b in self._v]
+        if self._target is not None and math.hypot(*left) <= max(math.hypot(*step), 1e-9):
+            self._pose[:3], self._v = self._target[:3], list(ZERO)  # the position arrives within this sub-step
+        else:
+            self._pose[:3] = [x + s for x, s in zip(p[:3], step)]
+        rotated = [w * h for w in self._w]
+        if self._target is not None and not self._turned and angle <= math.hypot(*rotated):
+            rotated, self._w, self._turned = [a * angle for a in axis], list(ZERO), True  # so does the orientation
+        for i in range(3):
+            turn[i] += rotated[i]
+        if self._stopping and not any(self._v) and not any(self._w):
+            self._stopping = False
+        return h
+
+    def _rotation_left(self, target: list[float], turn: list[float]) -> tuple[list[float], float]:
+        """Unit axis and angle (rad) from the present orientation (after `turn`) to the target's."""
+        if max(abs(target[3] - self._pose[3]), abs(target[4] - self._pose[4]), abs(target[5] - self._pose[5])) <= 1e-9:
+            return list(ZERO), 0.0
+        cur = rotvec_to_matrix(turn) @ rotvec_to_matrix(self._pose[3:]) if any(turn) else rotvec_to_matrix(self._pose[3:])
+        err = matrix_to_rotvec(rotvec_to_matrix(target[3:]) @ cur.T).tolist()
+        angle = math.hypot(*err)
+        if angle < 1e-9:
+            return list(ZERO), 0.0
+        return [e / angle for e in err], angle
+
+
+def _close(a: list[float], b: list[float]) -> bool:
+    return max(abs(x - y) for x, y in zip(a, b)) < 1e-12
+
+
+def _stopping(speed: float, accel: float) -> float:
+    """Distance to stop from `speed` at `accel` (0: at once)."""
+    return speed * speed / (2.0 * accel) if accel > 0.0 else 0.0

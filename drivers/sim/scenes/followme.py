@@ -25,8 +25,18 @@ from typing import ClassVar
 import numpy as np
 
 from drivers.protocols import SceneArm, SceneGripper
+from drivers.sim.models.objects import GrippedObject
 from drivers.sim.scenes.base import Scene
-from drivers.sim.scenes.grip import Grip, empty_contacts, pad_contacts, pad_view, slip_signal, step_hand, tool_rotation
+from drivers.sim.scenes.grip import (
+    Grip,
+    empty_contacts,
+    object_grip,
+    pad_contacts,
+    pad_view,
+    slip_signal,
+    step_hand,
+    tool_rotation,
+)
 
 AXES = "xyz"
 
@@ -60,6 +70,7 @@ class FollowMeScene(Scene):
     # squeeze per metre of closing is two such gels in series)
     seed: int = 0
     grip: Grip = field(default_factory=Grip)
+    material: GrippedObject | None = None  # the block's (None: neutral, the cell's friction)
 
     def __post_init__(self):
         self._dt = 0.0  # s, length of the last tick (slip is motion per camera frame)
@@ -137,7 +148,8 @@ class FollowMeScene(Scene):
         normals = self.normals()
         views = tuple(pad_view(side, self.pressed_area(normal), centroid) for side, normal in zip((-1.0, 1.0), normals))
         slip = slip_signal(self._seen_speed, self.area, self._dt)
-        return pad_contacts(normals, self._force, 0.0, views, slip)
+        gain = self.material.marker_gain if self.material is not None else 1.0
+        return pad_contacts(normals, self._force, 0.0, views, slip, gain=gain)
 
     def pressed_area(self, normal: float) -> float:
         """Share of a pad's image the block covers under `normal` N (signed: below 0 the block has left
@@ -176,7 +188,9 @@ class FollowMeScene(Scene):
 
 
 def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> FollowMeScene:
-    """Scene args: axis (x|y|z, tool axes), direction (pull|push), distance (m), move_time (s)."""
+    """Scene args: axis (x|y|z, tool axes), direction (pull|push), distance (m), move_time (s),
+    object (wood, glass, rubber, foam, steel; default a neutral block with the cell's friction)."""
+    grip, material = object_grip(args, world)
     return FollowMeScene(arm, gripper, axis=args.get("axis", "x"), direction=args.get("direction", "pull"),
                          distance=args.get("distance", 0.12), move_time=args.get("move_time", 4.0),
-                         seed=seed, grip=Grip(friction=world.get("friction", 0.8)))
+                         seed=seed, grip=grip, material=material)

@@ -15,6 +15,7 @@ import numpy as np
 
 from drivers.protocols import SceneArm, SceneGripper
 from drivers.sim.models.fingervision_model import FingerContact
+from drivers.sim.models.objects import GrippedObject, gripped_object
 from drivers.sim.scenes.base import Scene
 from drivers.sim.transforms import rotvec_to_matrix
 from perception.state import ObjectInfo
@@ -58,15 +59,16 @@ def pad_view(side: float, area: float, centroid_xz, orientation: float = 0.0) ->
 
 def pad_contacts(normals: tuple[float, float], load, torque_y: float = 0.0,
                  views: tuple[ObjectInfo, ObjectInfo] = (ObjectInfo(), ObjectInfo()),
-                 slip: float = 0.0, centre=None) -> dict[str, FingerContact]:
+                 slip: float = 0.0, centre=None, gain: float = 1.0) -> dict[str, FingerContact]:
     """FingerContacts of both pads: `normals` (left, right) in N, `load` the force the object
     puts on the hand in tool axes (x and z shared equally as shear), `torque_y` (N m) the
     torque it puts on the hand about tool y, `views` (left, right), `slip` per finger, and
-    `centre` the contact patch centre in image pixels (None: the image centre)."""
+    `centre` the contact patch centre in image pixels (None: the image centre). `gain` scales the
+    loads the gel shows: an object softer than the gel spreads them (`GrippedObject.marker_gain`)."""
     out = {}
     for (finger, side), normal, view in zip(SIDES, normals, views):
-        shear = np.array([0.5 * side * load[0], 0.5 * load[2]])
-        out[finger] = FingerContact(max(normal, 0.0), shear, -side * 0.5 * torque_y, centre, view, slip)
+        shear = np.array([0.5 * side * load[0], 0.5 * load[2]]) * gain
+        out[finger] = FingerContact(max(normal, 0.0) * gain, shear, -side * 0.5 * torque_y * gain, centre, view, slip)
     return out
 
 
@@ -84,10 +86,11 @@ class Grip:
     slide_damping: float = 150.0  # N s/m
     slid: np.ndarray = field(default_factory=lambda: np.zeros(2))  # m since grasped
     speed: float = 0.0  # sliding speed of the last step, m/s
+    adhesion: float = 0.0  # N carried beyond friction while squeezed (a sticky surface: glass)
 
     def capacity(self, normal_total: float) -> float:
         """Largest tangential load (N) the grip carries without sliding."""
-        return self.friction * max(normal_total, 0.0)
+        return self.friction * max(normal_total, 0.0) + (self.adhesion if normal_total > 0.0 else 0.0)
 
     def step(self, load, normal_total: float, dt: float) -> None:
         """Slide under `load` (N on the object, tool x and z) where it beats friction."""
@@ -101,6 +104,15 @@ class Grip:
     def offset(self, load) -> np.ndarray:
         """Object position relative to where it was grasped: slid plus elastic gel shear (m)."""
         return self.slid + np.asarray(load, float) / self.shear_stiffness
+
+
+def object_grip(args: dict, world: dict) -> tuple[Grip, GrippedObject | None]:
+    """The grip on the object the scene arg `object` names (`drivers.sim.models.objects`: its
+    friction and adhesion), or, without one, on a neutral object with the cell's world friction."""
+    obj = gripped_object(args.get("object"))
+    if obj is None:
+        return Grip(friction=world.get("friction", 0.8)), None
+    return Grip(friction=obj.friction, adhesion=obj.adhesion), obj
 
 
 class PickedScene(Scene):

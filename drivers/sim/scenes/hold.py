@@ -1,6 +1,8 @@
 """The hold scene: a box stands between the open fingers; once grasped and lifted off its stand
 it hangs in the grip, and a second after the lift someone starts loading it (sand poured in),
-so the grip that held the empty box starts to slip unless it is tightened."""
+so the grip that held the empty box starts to slip unless it is tightened. The box's material
+(scene arg `object`, `drivers.sim.models.objects`) sets its friction and adhesion on the pads and
+how far the markers move per newton."""
 
 from __future__ import annotations
 
@@ -10,8 +12,18 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drivers.protocols import SceneArm, SceneGripper
+from drivers.sim.models.objects import GrippedObject
 from drivers.sim.scenes.base import Scene
-from drivers.sim.scenes.grip import Grip, empty_contacts, pad_contacts, pad_view, slip_signal, step_hand, tool_rotation
+from drivers.sim.scenes.grip import (
+    Grip,
+    empty_contacts,
+    object_grip,
+    pad_contacts,
+    pad_view,
+    slip_signal,
+    step_hand,
+    tool_rotation,
+)
 
 GRAVITY = 9.81
 
@@ -28,6 +40,7 @@ class HoldScene(Scene):
     finger_reach: float = 0.02  # m the box may slide before it leaves the pads
     view_half: float = 0.015  # m, half the camera window along the pad
     grip: Grip = field(default_factory=Grip)
+    material: GrippedObject | None = None  # the box's (None: neutral, the cell's friction)
 
     def __post_init__(self):
         self._dt = 0.0  # s, length of the last tick (slip is motion per camera frame)
@@ -66,7 +79,8 @@ class HoldScene(Scene):
         offset = self.grip.slid / (2 * self.view_half)
         view = {s: pad_view(s, 0.3, offset) for s in (-1.0, 1.0)}
         slip = slip_signal(self.grip.speed, 0.3, self._dt)
-        return pad_contacts((squeeze, squeeze), self._load, 0.0, (view[-1.0], view[1.0]), slip)
+        gain = self.material.marker_gain if self.material is not None else 1.0
+        return pad_contacts((squeeze, squeeze), self._load, 0.0, (view[-1.0], view[1.0]), slip, gain=gain)
 
     def shortfalls(self, tolerances: Mapping[str, float]) -> list[str]:
         return ["the box was dropped"] if self.dropped else []
@@ -79,6 +93,8 @@ class HoldScene(Scene):
 
 
 def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> HoldScene:
-    """Scene args: mass (kg), extra_load (N)."""
+    """Scene args: mass (kg), extra_load (N), object (wood, glass, rubber, foam, steel; default a
+    neutral box with the cell's friction)."""
+    grip, material = object_grip(args, world)
     return HoldScene(arm, gripper, mass=args.get("mass", 0.5), extra_load=args.get("extra_load", 25.0),
-                     grip=Grip(friction=world.get("friction", 0.8)))
+                     grip=grip, material=material)

@@ -8,6 +8,11 @@ as the load nears the grip's friction capacity the gel shears more per newton, s
 field is not linear in the force (one reason to learn the mapping). Past the capacity the stick
 slides up in the grip. Let go (no squeeze left), the stick stays upright in its holder, resting
 on the scale with its own weight, between the open fingers.
+
+The stick's material (scene arg `object`, `drivers.sim.models.objects`) sets its grip on the pads
+(friction, and adhesion: glass sticks), how far the markers move per newton (a soft stick spreads
+the load) and how stiff its tip is on the scale, so the marker field per newton depends on the
+object pressed, as the paper found for ForceLearn.
 """
 
 from __future__ import annotations
@@ -17,9 +22,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drivers.protocols import SceneArm, SceneGripper
+from drivers.sim.models.objects import GrippedObject
 from drivers.sim.scenes.grip import (
     Grip,
     PickedScene,
+    object_grip,
     pad_contacts,
     pad_view,
     slip_signal,
@@ -51,6 +58,7 @@ class PressScene(PickedScene):
     area: float = 0.2
     seed: int = 0
     grip: Grip = field(default_factory=Grip)
+    material: GrippedObject | None = None  # the stick's (None: a neutral stick, the cell's friction)
 
     def __post_init__(self):
         self._dt = 0.0  # s, length of the last tick (slip is motion per camera frame)
@@ -86,7 +94,8 @@ class PressScene(PickedScene):
         shown = np.array([mindlin_shear(self._load[0], capacity), self._load[1],
                           mindlin_shear(self._load[2], capacity)])
         slip = slip_signal(self.grip.speed, self.area, self._dt)
-        return pad_contacts((squeeze, squeeze), shown, 0.0, views, slip)
+        gain = self.material.marker_gain if self.material is not None else 1.0
+        return pad_contacts((squeeze, squeeze), shown, 0.0, views, slip, gain=gain)
 
     def labels(self) -> dict:
         """What the scale says (the training label) and the true force, this tick."""
@@ -103,8 +112,9 @@ class PressScene(PickedScene):
 
 
 def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> PressScene:
-    """Scene args: mass (kg), contact_stiffness (N/m), scale_noise (N)."""
+    """Scene args: mass (kg), contact_stiffness (N/m; default the object's), scale_noise (N),
+    object (wood, glass, rubber, foam, steel; default a neutral stick with the cell's friction)."""
+    grip, material = object_grip(args, world)
     return PressScene(arm, gripper, mass=args.get("mass", 0.05),
-                      contact_stiffness=args.get("contact_stiffness", 4000.0),
-                      scale_noise=args.get("scale_noise", 0.1), seed=seed,
-                      grip=Grip(friction=world.get("friction", 0.8)))
+                      contact_stiffness=args.get("contact_stiffness", material.stiffness if material else 4000.0),
+                      scale_noise=args.get("scale_noise", 0.1), seed=seed, grip=grip, material=material)

@@ -1,0 +1,233 @@
+"""`fvtree calibrate-sensor`: measure a FingerVision sensor's gains and rest noise against known loads
+and write a sensor profile a cell file can name, as a lab would make one for its own sensor.
+
+On a cell with the press scene (a stick held between the fingertips above an electronic scale):
+
+1. rest: the fingers open, nothing touching, for `rest_ticks`: the markers' median frame-to-frame
+   step (`rest_jitter_px`) and the lag-1 autocorrelation of their positions (`jitter_persistence`);
+2. normal: the gripper closes on the stick at set forces (`grip_forces`, N; the gripper's force set
+   point is the known load, as a lab checks with a grip gauge), each held `hold_ticks`: the markers'
+   mean distance from rest per newton (`normal_px_per_n`, the slope of a line through the steps: a
+   load the skin has not yet shown, equal at every step, falls into the intercept);
+3. shear: holding the stick at the last grip force, the arm lifts it, finds the scale and presses it
+   down in `press_steps` steps of `press_step_m`; each pad carries half the scale's reading along
+   the stick: the markers' mean motion along it per newton (`shear_px_per_n`, the slope at zero load
+   of a Hertz-Mindlin partial-slip curve through the steps: a grip nearing its friction capacity
+   shears more per newton).
+
+Every other number is kept from the cell's own profile with its source; the measured ones carry
+"measured by calibrate_sensor on DATE" and how.
+"""
+
+from __future__ import annotations
+
+import datetime
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from drivers.cell import Cell
+from drivers.cell_builders import load_cell
+from fvfiles.errors import FvtreeError
+from perception.sensor_profile import SensorProfile, save_profile
+from perception.state import FINGERS
+
+TICK_HZ = 30.0
+
+
+class CalibrationError(FvtreeError):
+    """The calibration could not measure what it needs (no scale, the stick slipped, ...)."""
+
+
+@dataclass(frozen=True)
+class Plan:
+    """The loads and durations of one calibration."""
+
+    rest_ticks: int = 90
+    grip_forces: tuple[float, ...] = (4.0, 8.0, 12.0, 16.0, 20.0)  # N, each pad
+    hold_ticks: int = 60  # per step; the last half is averaged
+    press_step_m: float = 0.0005
+    press_steps: int = 6
+    find_speed: float = 0.005  # m/s down towards the scale
+    touch_n: float = 0.3  # N on the scale: the stick has found it
+
+
+@dataclass
+class Calibration:
+    """What was measured, with the steps it was fitted on."""
+
+    normal_px_per_n: float
+    shear_px_per_n: float
+    rest_jitter_px: float
+    jitter_persistence: float
+    normal_steps: list[tuple[float, float]]  # (N set, mean px from rest)
+    shear_steps: list[tuple[float, float]]  # (N on the scale, mean px along the stick)
+
+
+class _Session:
+    """The cell ticked by hand: sense, command, step; the marker fields of each tick kept."""
+
+    def __init__(self, cell: Cell):
+        self.cell = cell
+        self.rest: dict[str, np.ndarray] = {}
+
+    def ticks(self, n: int) -> list[tuple[Mapping[str, Any], dict]]:
+        out: list[tuple[Mapping[str, Any], dict]] = []
+        for _ in range(n):
+            states = self.cell.sense()
+            labels = self.cell.world.labels() if self.cell.world is not None else {}
+            out.append((states, labels))
+            self.cell.arm.kick()
+            self.cell.step()
+            fault = self.cell.arm.fault() or self.cell.gripper.fault()
+            if fault:
+                raise CalibrationError(f"the cell stopped during the calibration: {fault}")
+        return out
+
+    def moved(self, states: Mapping[str, Any], finger: str) -> tuple[np.ndarray, np.ndarray]:
+        """Each marker's motion from its mean rest position, and which markers are tracked."""
+        m = states[finger].markers
+        return m.position - self.rest[finger], m.valid.astype(bool)
+
+
+def calibrate(cell: Cell, plan: Plan = Plan()) -> Calibration:
+    """Run the three phases on `cell` (its world must be the press scene, labelling `scale_force`)."""
+    if cell.world is None or "scale_force" not in cell.world.labels():
+        raise CalibrationError("calibrate_sensor needs a cell whose scene reads a scale (the press scene)")
+    s = _Session(cell)
+    jitter, persistence = _rest(s, s.ticks(plan.rest_ticks))
+    normal_steps = []
+    cell.gripper.move(0.0, 0.05, plan.grip_forces[0])
+    s.ticks(int(2.0 * TICK_HZ))  # the fingers close on the stick
+    for force in plan.grip_forces:
+        cell.gripper.move(0.0, 0.05, force)
+        held = s.ticks(plan.hold_ticks)[plan.hold_ticks // 2:]
+        normal_steps.append((force, _spread(s, [st for st, _ in held])))
+    shear_steps = _press(s, plan)
+    f, px = np.array(normal_steps).T
+    normal = float(np.polyfit(f, px, 1)[0])
+    shear = 2.0 * _mindlin_slope(*np.array(shear_steps).T)  # each pad carries half the scale's load
+    if normal <= 0.0 or shear <= 0.0:
+        raise CalibrationError(f"the markers did not move with the load (normal {normal:.4g}, shear {shear:.4g} px/N)")
+    return Calibration(normal, shear, jitter, persistence, normal_steps, shear_steps)
+
+
+def _mindlin_slope(force: np.ndarray, px: np.ndarray) -> float:
+    """px per newton at zero load of a gripped stick's shear: the steps fitted with a Hertz-Mindlin
+    partial-slip curve, px = a + k 1.5 c (1 - (1 - F/c)^(2/3)) (the grip shears more per newton as
+    the load nears its capacity c, which a line or a quadratic would fold into the slope)."""
+    from scipy.optimize import curve_fit
+
+    def curve(f, a, k, c):
+        return a + k * 1.5 * c * (1.0 - np.clip(1.0 - f / c, 0.0, None) ** (2.0 / 3.0))
+
+    line = np.polyfit(force, px, 1)
+    try:
+        (_, k, _), _ = curve_fit(curve, force, px, p0=(line[1], line[0], 4.0 * force.max()),
+                                 bounds=([-np.inf, -np.inf, 1.05 * force.max()], [np.inf, np.inf, np.inf]))
+    except (RuntimeError, ValueError):
+        raise CalibrationError("the shear steps fit no partial-slip curve: press in more, smaller steps") from None
+    return abs(float(k))
+
+
+def _rest(s: _Session, ticks: list) -> tuple[float, float]:
+    """Median frame-to-frame step of the tracked markers at rest, and the lag-1 autocorrelation of
+    their positions; sets the rest positions the loaded steps are measured from."""
+    steps, corr = [], []
+    for finger in FINGERS:
+        pos = np.array([st[finger].markers.position for st, _ in ticks])  # (T, N, 2)
+        valid = np.array([st[finger].markers.valid for st, _ in ticks]).astype(bool)  # (T, N)
+        s.rest[finger] = np.array([pos[valid[:, i], i].mean(axis=0) if valid[:, i].any() else pos[0, i]
+                                   for i in range(pos.shape[1])])
+        both = valid[1:] & valid[:-1]
+        steps.append(np.linalg.norm(pos[1:] - pos[:-1], axis=2)[both])
+        dev = pos - s.rest[finger]
+        num = (dev[1:] * dev[:-1]).sum(axis=2)[both].sum()
+        den = (dev[:-1] ** 2).sum(axis=2)[both].sum()
+        corr.append(num / den if den > 0 else 0.0)
+    return float(np.median(np.concatenate(steps))), float(max(0.0, min(np.mean(corr), 0.99)))
+
+
+def _held_motion(s: _Session, held: list[Mapping[str, Any]], finger: str) -> np.ndarray:
+    """(N, 2) each marker's mean motion from rest over the ticks it was tracked in `held` (markers
+    never tracked left out): averaging per marker first keeps a marker the tracker drops now and then
+    from changing which markers the mean is over."""
+    moved = [s.moved(states, finger) for states in held]
+    d = np.array([m for m, _ in moved])  # (T, N, 2)
+    valid = np.array([v for _, v in moved])  # (T, N)
+    seen = valid.sum(axis=0)
+    total = (d * valid[:, :, None]).sum(axis=0)
+    return total[seen > 0] / seen[seen > 0, None]
+
+
+def _spread(s: _Session, held: list[Mapping[str, Any]]) -> float:
+    """The markers' mean distance from rest over the held ticks, both fingers."""
+    return float(np.mean([np.linalg.norm(_held_motion(s, held, f), axis=1).mean() for f in FINGERS]))
+
+
+def _along(s: _Session, held: list[Mapping[str, Any]]) -> float:
+    """The markers' mean motion along the stick (image y) over the held ticks, both fingers."""
+    return float(np.mean([_held_motion(s, held, f)[:, 1].mean() for f in FINGERS]))
+
+
+def _press(s: _Session, plan: Plan) -> list[tuple[float, float]]:
+    """Lift the held stick, find the scale, press it in steps: (scale reading, motion along) per step."""
+    arm = s.cell.arm
+    start = arm.pose()
+    arm.move_linear(start + np.array([0, 0, 0.003, 0, 0, 0]), 0.01)
+    s.ticks(30)
+    arm.speed_linear(np.array([0, 0, -plan.find_speed, 0, 0, 0]))
+    for _ in range(int(0.1 / plan.find_speed * TICK_HZ)):  # at most 10 cm
+        (_, labels), = s.ticks(1)
+        if labels.get("scale_force", 0.0) > plan.touch_n:
+            break
+    else:
+        raise CalibrationError("the stick found no scale within 10 cm below it")
+    arm.stop()
+    s.ticks(15)
+    steps = []
+    for _ in range(plan.press_steps):
+        arm.move_linear(arm.pose() - np.array([0, 0, plan.press_step_m, 0, 0, 0]), 0.005)
+        held = s.ticks(plan.hold_ticks)[plan.hold_ticks // 2:]
+        steps.append((float(np.mean([lab["scale_force"] for _, lab in held])), _along(s, [st for st, _ in held])))
+    arm.move_linear(start + np.array([0, 0, 0.003, 0, 0, 0]), 0.01)
+    s.ticks(30)
+    slid = s.cell.world.metrics().get("stick slid in the grip (mm)", 0.0) if s.cell.world is not None else 0.0
+    if slid:
+        raise CalibrationError(f"the stick slid {slid} mm in the grip while pressed: grip harder or press less")
+    return steps
+
+
+def profile_of(cal: Calibration, base: SensorProfile, name: str, where: str,
+               today: datetime.date | None = None) -> SensorProfile:
+    """`base` with the measured numbers in, each with its source."""
+    date = (today or datetime.date.today()).isoformat()
+    how = f"measured by calibrate_sensor on {date} ({where})"
+    n_steps = ", ".join(f"{f:g} N: {px:.3f} px" for f, px in cal.normal_steps)
+    s_steps = ", ".join(f"{f:.2f} N: {px:.3f} px" for f, px in cal.shear_steps)
+    sources = {**base.sources,
+               "normal_px_per_n": f"{how}: markers' mean distance from rest against the grip force set point, "
+                                  f"slope of a line through {n_steps}",
+               "shear_px_per_n": f"{how}: markers' mean motion along the stick against the scale reading (half "
+                                 f"on each pad), slope at zero load of a Hertz-Mindlin partial-slip curve through {s_steps}",
+               "rest_jitter_px": f"{how}: median frame-to-frame step of the tracked markers, fingers open",
+               "jitter_persistence": f"{how}: lag-1 autocorrelation of the markers' rest positions"}
+    return replace(base, name=name, normal_px_per_n=round(cal.normal_px_per_n, 4),
+                   shear_px_per_n=round(cal.shear_px_per_n, 4), rest_jitter_px=round(cal.rest_jitter_px, 4),
+                   jitter_persistence=round(cal.jitter_persistence, 3), sources=sources)
+
+
+def run(out: str | Path, cell: str = "sim", seed: int = 0, perception: str | None = None,
+        scene_args: dict | None = None, plan: Plan = Plan()) -> tuple[Path, Calibration]:
+    """Calibrate the sensor of `cell` (the press scene) and write its profile to `out`."""
+    the_cell = load_cell(cell, TICK_HZ, "press", scene_args or {}, seed=seed, perception=perception)
+    try:
+        cal = calibrate(the_cell, plan)
+    finally:
+        the_cell.close()
+    where = f"cell {cell}, seed {seed}" + (f", {perception}" if perception else "")
+    profile = profile_of(cal, the_cell.sensor_profile, Path(out).stem, where)
+    return save_profile(profile, out), cal
