@@ -130,8 +130,8 @@ def test_object_track_follows_along_the_pads_and_the_closing_axis(direction):
 
 
 def test_object_track_fails_on_the_closing_axis_when_the_gel_does_not_show_the_push():
-    """A gel 4x stiffer than the simulated gripper's: the area changes too little; the skill says so."""
-    closing = followme("y", "pull", "FAILURE", pad_stiffness=20000.0)
+    """A gel 8x stiffer than the simulated gripper's: the area changes too little; the skill says so."""
+    closing = followme("y", "pull", "FAILURE", pad_stiffness=40000.0)
     assert "vision cannot follow the axis perpendicular to the skin" in closing["feedback"]
 
 
