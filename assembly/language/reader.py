@@ -147,8 +147,20 @@ def _collect_subtrees(doc: Located, file: str, out: dict[str, SubtreeDef], error
             errors.append(TreeError(f"subtree {name!r} is defined twice", file, line,
                                     hint=f"also in {out[name].file}:{out[name].line}"))
             continue
-        params = body.get("params") if isinstance(body.get("params"), dict) else None
+        params = _named_params(body.get("params"), name, errors) if isinstance(body.get("params"), Located) else None
         out[name] = SubtreeDef(name, subtree_params(params, body, name, errors), body["root"], file, line)
+
+
+def _named_params(params: Located, subtree: str, errors: list[TreeError]) -> Located:
+    """A subtree's param declarations whose names are names: `$name` refers to them, and messages
+    list them. Any other key (`null:`, `1:`, a line of some other file) is refused at its line."""
+    named = Located((key, decl) for key, decl in params.items() if isinstance(key, str) and key.isidentifier())
+    named.file, named.line = params.file, params.line
+    named.key_lines = {key: params.line_of(key) for key in named}
+    errors.extend(TreeError(f"param name {field_name(key)} is not a name (letters, digits and _)", params.file,
+                            params.line_of(key), f"subtrees/{subtree}", "a param is used as $name")
+                  for key in params if key not in named)
+    return named
 
 
 def _cell_settings(doc: Located, file: str, errors: list[TreeError]) -> tuple[float, str]:
