@@ -35,6 +35,8 @@ class DesignBridge:
         self.links = list(links)
         self.dispatcher = dispatcher  # hands out the next element when several cells share a design
         self.unlogged = 0  # events that went to stderr: the event log could not be written
+        # {element, path, speed} of a way out a stopped session began and did not finish (`catch_up`)
+        self.unfinished_retreat: dict | None = None
         atomic_write_json(self.asbuilt_path, model.to_data())
 
     def next_element(self, remaining: list[str]) -> str | None:
@@ -89,9 +91,16 @@ class DesignBridge:
         """The element is about to be released at `pose`: a resumed run must not pick it again."""
         self._record("placing", eid, pose, load)
 
-    def record_placement(self, eid: str, pose, load: float | None) -> None:
-        """The element stands at `pose` carrying `load`."""
-        self._record("placed", eid, pose, load)
+    def record_placement(self, eid: str, pose, load: float | None, retreat: dict | None = None) -> None:
+        """The element stands at `pose` carrying `load`; `retreat` ({path: TCP poses, speed}) is the
+        way out the arm takes next, which a run resumed before its `retreated` record finishes."""
+        extra = None if retreat is None else {"path": np.asarray(retreat["path"], float).round(6).tolist(),
+                                              "speed": float(retreat["speed"])}
+        self._record("placed", eid, pose, load, retreat=extra)
+
+    def record_retreat(self, eid: str) -> None:
+        """The arm has backed out of the placed element (the way out its `placed` record gave)."""
+        self.event("retreated", element=eid)
 
     def mark(self, eid: str, status: str) -> None:
         """A person's verdict on an element left `placing`: `placed` (it stands where recorded)
@@ -99,12 +108,13 @@ class DesignBridge:
         node = self.model.graph.nodes[eid]
         self._record("marked", eid, node.get("asbuilt_pose"), node.get("measured_load"), status)
 
-    def _record(self, kind: str, eid: str, pose, load: float | None, status: str | None = None) -> None:
+    def _record(self, kind: str, eid: str, pose, load: float | None, status: str | None = None,
+                retreat: dict | None = None) -> None:
         data = {"element": eid, "status": status or kind,
                 "pose": None if pose is None else np.asarray(pose, float).round(6).tolist(),
                 "load": None if load is None else round(float(load), 6)}
         self._apply(data)
-        logged = self.event(kind, **data)
+        logged = self.event(kind, **data, **({} if retreat is None else {"retreat": retreat}))
         try:
             atomic_write_json(self.asbuilt_path, self.model.to_data())
         except OSError as exc:
@@ -123,9 +133,15 @@ class DesignBridge:
 
     def catch_up(self) -> list[str]:
         """Replay the event log's records onto the model (those a failed or interrupted model
-        write missed), save it if anything changed, and return the elements changed."""
+        write missed), save it if anything changed, and return the elements changed; note the way
+        out of the last placed element when the log ends before its `retreated` record."""
         changed = []
+        self.unfinished_retreat = None
         for record in read_json_lines(self.events_path):
+            if record.get("event") == "placed" and isinstance(record.get("retreat"), dict):
+                self.unfinished_retreat = {"element": record.get("element"), **record["retreat"]}
+            elif record.get("event") == "retreated" or record.get("event") in self.RECORDS:
+                self.unfinished_retreat = None  # backed out, or another element begun
             if record.get("event") in self.RECORDS and record.get("element") in self.model.graph:
                 node = self.model.graph.nodes[record["element"]]
                 before = (node.get("status"), node.get("asbuilt_pose"), node.get("measured_load"))

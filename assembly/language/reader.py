@@ -147,7 +147,8 @@ def _collect_subtrees(doc: Located, file: str, out: dict[str, SubtreeDef], error
             errors.append(TreeError(f"subtree {name!r} is defined twice", file, line,
                                     hint=f"also in {out[name].file}:{out[name].line}"))
             continue
-        params = _named_params(body.get("params"), name, errors) if isinstance(body.get("params"), Located) else None
+        declared = body.get("params")
+        params = _named_params(declared, name, errors) if isinstance(declared, Located) else None
         out[name] = SubtreeDef(name, subtree_params(params, body, name, errors), body["root"], file, line)
 
 
