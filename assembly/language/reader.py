@@ -108,6 +108,19 @@ def include_roots(tree_file: str) -> list[Path]:
     return [Path(tree_file).resolve().parent, *extra]
 
 
+def _within(base: Path, rel: str, roots: list[Path], what: str, file: str, line: int) -> Path:
+    """The file `rel` (relative to `base`) names, resolved, when it lies under one of `roots`
+    (`include_roots`); a TreeError at `file:line` otherwise, which names `what` and never reads it."""
+    try:
+        target = (base / rel).resolve()
+    except (RuntimeError, OSError) as exc:  # a symbolic-link loop (RuntimeError before Python 3.13)
+        raise TreeError(f"{what}: cannot be resolved ({exc})", file, line) from None
+    if not any(target.is_relative_to(root) for root in roots):
+        raise TreeError(f"{what}: outside the tree's folder {roots[0]}, so it is not read", file, line,
+                        hint=f"allow its folder with `fvtree --allow-include DIR ...` or {INCLUDE_PATH}=DIR")
+    return target
+
+
 def _collect_subtrees(doc: Located, file: str, out: dict[str, SubtreeDef], errors: list[TreeError],
                       seen_files: tuple[str, ...], roots: list[Path]) -> None:
     """Subtrees of this file and, recursively, of its includes (their fields are checked with the
@@ -118,14 +131,9 @@ def _collect_subtrees(doc: Located, file: str, out: dict[str, SubtreeDef], error
     for i, rel in enumerate(includes):
         line = includes.item_lines[i]
         try:
-            target = str((base / rel).resolve())
-        except (RuntimeError, OSError) as exc:  # a symbolic-link loop (RuntimeError before Python 3.13)
-            errors.append(TreeError(f"include {rel!r}: cannot be resolved ({exc})", file, line))
-            continue
-        if not any(Path(target).is_relative_to(root) for root in roots):
-            errors.append(TreeError(f"include {rel!r}: outside the tree's folder {roots[0]}, so it is not read",
-                                    file, line, hint="allow its folder with `fvtree --allow-include DIR ...` "
-                                                     f"or {INCLUDE_PATH}=DIR"))
+            target = str(_within(base, rel, roots, f"include {rel!r}", file, line))
+        except TreeError as exc:
+            errors.append(exc)
             continue
         if target in seen_files:
             errors.append(TreeError(f"include cycle: {' -> '.join(seen_files + (target,))}", file, line))
@@ -184,9 +192,16 @@ def with_scene(doc: TreeDocument, scene: str) -> TreeDocument:
 
 
 def _design(doc: Located, file: str, errors: list[TreeError]) -> DesignModel | None:
-    """The design model the tree names (relative to the tree file), if any."""
+    """The design model the tree names (relative to the tree file, and under its folder or one
+    allowed for includes, like an include: `design: /etc/passwd` is not read), if any."""
     if not _fits(doc, "design"):
         return None  # none, or not a path (reported with the fields)
+    try:
+        _within(Path(file).parent, str(doc["design"]), include_roots(file), f"design {doc['design']!r}", file,
+                doc.line_of("design"))
+    except TreeError as exc:
+        errors.append(exc)
+        return None
     try:
         return DesignModel.load(Path(file).parent / str(doc["design"]))
     except FvtreeError as exc:
