@@ -5,6 +5,7 @@ live design links."""
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -35,6 +36,7 @@ class DesignBridge:
         self.links = list(links)
         self.dispatcher = dispatcher  # hands out the next element when several cells share a design
         self.unlogged = 0  # events that went to stderr: the event log could not be written
+        self.stamp: Callable[[], dict] | None = None  # the run's {tick, t, element} now (the tick loop sets it)
         # {element, path, speed} of a way out a stopped session began and did not finish (`catch_up`)
         self.unfinished_retreat: dict | None = None
         atomic_write_json(self.asbuilt_path, model.to_data())
@@ -48,8 +50,9 @@ class DesignBridge:
 
     def event(self, kind: str, **data: Any) -> bool:
         """Log an event (to stderr if the log cannot be written) and show it to the links; whether
-        it reached the log."""
-        record = {"time": time.time(), "event": kind, **data}
+        it reached the log. `time` is the wall time; the run's `stamp` adds its tick, cell time
+        `t` and the element in work, as the transition log has them."""
+        record = {"time": time.time(), **(self.stamp() if self.stamp is not None else {}), "event": kind, **data}
         logged = append_json_line_or_stderr(self.events_path, record)
         self.unlogged += not logged
         self.notify(record)

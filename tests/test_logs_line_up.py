@@ -1,0 +1,56 @@
+"""The run's two logs line up: every transition and every event carries the run's tick, the cell
+time `t`, the wall time and the element in work; a resumed run's ticks go on from the last one its
+earlier session logged, and its `start` event (resume: true) marks where. Before: events carried
+only the wall time, transitions only cell time, neither named the element, and a resumed run
+counted its ticks from 1 again with no marker."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+from assembly.run.options import RunOptions
+from assembly.run.session import run_tree
+from assembly.run.transitions import last_tick
+
+ROOT = Path(__file__).resolve().parents[1]
+ASSEMBLY = str(ROOT / "trees" / "assembly.yaml")
+QUIET = {"quiet": True, "plots": False, "record": False}
+
+
+def lines(path: Path) -> list[dict]:
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def test_transitions_and_events_carry_tick_cell_time_wall_time_and_element(tmp_path):
+    began = time.time()
+    first = run_tree(ASSEMBLY, RunOptions(runs_dir=tmp_path, estop_at=30.0, **QUIET))  # while E1 is picked
+    run_dir = Path(first.run_dir)
+    transitions, events = lines(run_dir / "transitions.jsonl"), lines(run_dir / "events.jsonl")
+    assert first.status == "ESTOP" and transitions and events
+    for record in transitions + events:
+        assert {"tick", "t", "element"} <= set(record), record
+        assert began <= record.get("wall", record.get("time")) <= time.time() + 1
+    assert all(r["element"] == "E1" for r in transitions if "/elements/build/" in r["node"])
+    halted = next(e for e in events if e["event"] == "halted")
+    assert halted["element"] == "E1" and halted["t"] >= 30.0
+    # the halt's tick and cell time are those of the transitions it caused
+    stopped = [r for r in transitions if r["tick"] == halted["tick"]]
+    assert stopped and all(r["t"] == halted["t"] for r in stopped)
+
+    second = run_tree(ASSEMBLY, RunOptions(runs_dir=tmp_path, resume="latest", max_time=5.0, **QUIET))
+    assert second.status == "TIMEOUT"
+    after = lines(run_dir / "transitions.jsonl")
+    ticks = [r["tick"] for r in after]
+    assert ticks == sorted(ticks) and ticks[len(transitions)] == transitions[-1]["tick"] + 1
+    marker = [e for e in lines(run_dir / "events.jsonl") if e["event"] == "start"][-1]
+    assert marker["resume"] is True and marker["tick"] == transitions[-1]["tick"] + 1  # the session's first tick
+    assert last_tick(run_dir / "transitions.jsonl") == ticks[-1]
+
+
+def test_the_last_tick_of_a_log_skips_a_torn_line(tmp_path):
+    log = tmp_path / "transitions.jsonl"
+    assert last_tick(log) is None
+    log.write_text('{"tick": 7, "node": "a"}\n{"tick": 9, "node": "b"}\n{"tick": 12, "no')
+    assert last_tick(log) == 9
