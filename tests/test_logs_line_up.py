@@ -10,6 +10,8 @@ import json
 import time
 from pathlib import Path
 
+from assembly.language.reader import load_tree
+from assembly.outcome.outline import render
 from assembly.run.options import RunOptions
 from assembly.run.session import run_tree
 from assembly.run.transitions import last_tick
@@ -25,16 +27,18 @@ def lines(path: Path) -> list[dict]:
 
 def test_transitions_and_events_carry_tick_cell_time_wall_time_and_element(tmp_path):
     began = time.time()
-    first = run_tree(ASSEMBLY, RunOptions(runs_dir=tmp_path, estop_at=30.0, **QUIET))  # while E1 is picked
+    first = run_tree(ASSEMBLY, RunOptions(runs_dir=tmp_path, estop_at=140.0, **QUIET))  # E1 placed, E2 picked
     run_dir = Path(first.run_dir)
     transitions, events = lines(run_dir / "transitions.jsonl"), lines(run_dir / "events.jsonl")
     assert first.status == "ESTOP" and transitions and events
     for record in transitions + events:
         assert {"tick", "t", "element"} <= set(record), record
         assert began <= record.get("wall", record.get("time")) <= time.time() + 1
-    assert all(r["element"] == "E1" for r in transitions if "/elements/build/" in r["node"])
+    assert {r["element"] for r in transitions if "/elements/build/" in r["node"]} == {"E1", "E2"}
+    assert [(e["event"], e["element"]) for e in events if e["event"] in ("placing", "placed")] == [
+        ("placing", "E1"), ("placed", "E1")]
     halted = next(e for e in events if e["event"] == "halted")
-    assert halted["element"] == "E1" and halted["t"] >= 30.0
+    assert halted["element"] == "E2" and halted["t"] >= 140.0
     # the halt's tick and cell time are those of the transitions it caused
     stopped = [r for r in transitions if r["tick"] == halted["tick"]]
     assert stopped and all(r["t"] == halted["t"] for r in stopped)
@@ -47,6 +51,15 @@ def test_transitions_and_events_carry_tick_cell_time_wall_time_and_element(tmp_p
     marker = [e for e in lines(run_dir / "events.jsonl") if e["event"] == "start"][-1]
     assert marker["resume"] is True and marker["tick"] == transitions[-1]["tick"] + 1  # the session's first tick
     assert last_tick(run_dir / "transitions.jsonl") == ticks[-1]
+
+    # `fvtree show --run`: each element's last status, not only the last element's
+    shown = render(load_tree(ASSEMBLY), run_dir)
+    line = {name: next(x for x in shown.splitlines() if f" {name} [" in x) for name in ("place", "locate", "home")}
+    assert "[E1 ✔ E2 -]" in line["place"] and "[E1 ✔ E2 -]" in line["locate"] and "[E" not in line["home"], shown
+    # E2 was being located when the e-stop halted it (halted: '-'); E1's nodes succeeded for E1, not
+    # for E2, which for_each_element named at the tick E1's place_element succeeded
+    assert [r["element"] for r in transitions if r["node"].endswith("/locate") and r["to"] == "RUNNING"] == ["E1", "E2"]
+    assert [r["element"] for r in transitions if r["node"].endswith("/place") and r["to"] == "SUCCESS"] == ["E1"]
 
 
 def test_the_last_tick_of_a_log_skips_a_torn_line(tmp_path):

@@ -106,6 +106,8 @@ class Runner:
         self.recorder = recorder
         self.behaviour_tree.add_pre_tick_handler(self.stop_policy.before_tick)
         self.behaviour_tree.add_pre_tick_handler(self.perception)
+        if self.log is not None:
+            self.behaviour_tree.add_pre_tick_handler(self.log.before_tick)
         if self.supervisor is not None:
             self.behaviour_tree.add_pre_tick_handler(self.supervisor)
             self.stop_policy.checks.insert(0, self.supervisor.check)

@@ -65,12 +65,17 @@ class TransitionLog:
         self._node_objects = [node for _, node in self._nodes]
         self._seen = [Status.INVALID] * len(self._nodes)  # every node's status at the last record
         self._file: TextIO | None = None
+        self._element_before: str | None = None  # the element in work as the tick began
         last = last_tick(path)
         self.tick_base = 0 if last is None else last + 1  # the ticks of earlier sessions of this run come first
         try:
             self._file = open(path, "a")  # noqa: SIM115 - open for the whole run; close() closes it
         except OSError as exc:
             self._lost(exc, "the start")
+
+    def before_tick(self, tree: py_trees.trees.BehaviourTree) -> None:
+        """Pre-tick handler: the element in work as the tick begins (see `record`)."""
+        self._element_before = element_in_work()
 
     def __call__(self, tree: py_trees.trees.BehaviourTree) -> None:
         self.record(tree.count)
@@ -82,13 +87,17 @@ class TransitionLog:
             return
         self._seen = statuses
         changes = []
-        stamp = {"tick": self.tick_base + tick, "t": round(self.clock.now(), 6), "wall": round(time.time(), 3),
-                 "element": element_in_work()}
+        stamp = {"tick": self.tick_base + tick, "t": round(self.clock.now(), 6), "wall": round(time.time(), 3)}
+        # A node that ends (or is halted) ends its work on the element of the tick's start; one that
+        # starts runs for the element of its end: at the tick for_each_element names the next
+        # element, the last one's nodes succeed.
+        now = element_in_work()
+        before = self._element_before if self._element_before is not None else now
         for path, node in self._nodes:
             status = node.status
             if status is not self._last[path]:
-                changes.append({**stamp, "node": path, "from": self._last[path].name, "to": status.name,
-                                "feedback": node.feedback_message})
+                changes.append({**stamp, "element": now if status is Status.RUNNING else before, "node": path,
+                                "from": self._last[path].name, "to": status.name, "feedback": node.feedback_message})
                 self._last[path] = status
         if changes and self._file:
             try:
