@@ -2,7 +2,8 @@
 time `t`, the wall time and the element in work; a resumed run's ticks go on from the last one its
 earlier session logged, and its `start` event (resume: true) marks where. Before: events carried
 only the wall time, transitions only cell time, neither named the element, and a resumed run
-counted its ticks from 1 again with no marker."""
+counted its ticks from 0 again with no marker; `fvtree show --run` showed only the last element's
+statuses; and a Ctrl-C between a record's two writes left asbuilt.json behind the event log."""
 
 from __future__ import annotations
 
@@ -67,3 +68,28 @@ def test_the_last_tick_of_a_log_skips_a_torn_line(tmp_path):
     assert last_tick(log) is None
     log.write_text('{"tick": 7, "node": "a"}\n{"tick": 9, "node": "b"}\n{"tick": 12, "no')
     assert last_tick(log) == 9
+
+
+def test_a_ctrl_c_between_the_log_and_the_as_built_file_leaves_them_agreeing(tmp_path, monkeypatch):
+    """Ctrl-C lands after E1's `placed` record reached the event log and before the as-built file
+    was replaced (before: asbuilt.json still said `placing` for the element the log called placed;
+    a resume caught it up, a reader of the run directory did not). The session's end settles it."""
+    from assembly.design import bridge as bridge_module
+
+    write = bridge_module.atomic_write_json
+    interrupted = []
+
+    def interrupt_once(path, data):
+        placed = any(n.get("status") == "placed" for n in data["nodes"])
+        if placed and not interrupted:
+            interrupted.append(path)
+            raise KeyboardInterrupt
+        return write(path, data)
+    monkeypatch.setattr(bridge_module, "atomic_write_json", interrupt_once)
+    summary = run_tree(ASSEMBLY, RunOptions(runs_dir=tmp_path, **QUIET))
+    assert summary.status == "HALTED" and interrupted
+    run_dir = Path(summary.run_dir)
+    logged = {e["element"]: e["status"] for e in lines(run_dir / "events.jsonl") if e["event"] in ("placing", "placed")}
+    asbuilt = {n["id"]: n.get("status") for n in json.loads((run_dir / "asbuilt.json").read_text())["nodes"]
+               if n["kind"] == "element"}
+    assert logged == {"E1": "placed"} and asbuilt == {"E1": "placed", "E2": "planned"}

@@ -4,6 +4,7 @@ live design links."""
 
 from __future__ import annotations
 
+import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -12,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from assembly.design.model import DesignModel
-from fvfiles.errors import RecordNotWritten
+from fvfiles.errors import FvtreeError, RecordNotWritten
 from fvfiles.json_files import append_json_line_or_stderr, atomic_write_json, read_json_lines
 
 
@@ -86,7 +87,9 @@ class DesignBridge:
         return None
 
     def close(self) -> None:
-        """Close the links (each sends what it still holds first, within its own time limit)."""
+        """Settle the as-built file with the log (`settle`), then close the links (each sends what
+        it still holds first, within its own time limit)."""
+        self.settle()
         for link in self.links:
             link.close()
 
@@ -125,8 +128,8 @@ class DesignBridge:
             raise RecordNotWritten(f"cannot write the as-built model ({exc.strerror or exc}); "
                                    f"the {kind} record of {eid} is in {kept}", str(self.asbuilt_path)) from exc
 
-    def _apply(self, record: dict) -> None:
-        node = self.model.graph.nodes[record["element"]]
+    def _apply(self, record: dict, model: DesignModel | None = None) -> None:
+        node = (model or self.model).graph.nodes[record["element"]]
         node["status"] = record["status"]
         for name, key in (("asbuilt_pose", "pose"), ("measured_load", "load")):
             if record["status"] == "planned":
@@ -138,19 +141,40 @@ class DesignBridge:
         """Replay the event log's records onto the model (those a failed or interrupted model
         write missed), save it if anything changed, and return the elements changed; note the way
         out of the last placed element when the log ends before its `retreated` record."""
-        changed = []
         self.unfinished_retreat = None
         for record in read_json_lines(self.events_path):
             if record.get("event") == "placed" and isinstance(record.get("retreat"), dict):
                 self.unfinished_retreat = {"element": record.get("element"), **record["retreat"]}
             elif record.get("event") == "retreated" or record.get("event") in self.RECORDS:
                 self.unfinished_retreat = None  # backed out, or another element begun
-            if record.get("event") in self.RECORDS and record.get("element") in self.model.graph:
-                node = self.model.graph.nodes[record["element"]]
-                before = (node.get("status"), node.get("asbuilt_pose"), node.get("measured_load"))
-                self._apply(record)
-                if (node.get("status"), node.get("asbuilt_pose"), node.get("measured_load")) != before:
-                    changed.append(record["element"])
+        changed = self._replay(self.model)
         if changed:
             atomic_write_json(self.asbuilt_path, self.model.to_data())
         return changed
+
+    def _replay(self, model: DesignModel) -> list[str]:
+        """Apply the event log's element records to `model`; the elements that changed."""
+        changed = []
+        for record in read_json_lines(self.events_path):
+            if record.get("event") in self.RECORDS and record.get("element") in model.graph:
+                node = model.graph.nodes[record["element"]]
+                before = (node.get("status"), node.get("asbuilt_pose"), node.get("measured_load"))
+                self._apply(record, model)
+                if (node.get("status"), node.get("asbuilt_pose"), node.get("measured_load")) != before:
+                    changed.append(record["element"])
+        return changed
+
+    def settle(self) -> None:
+        """Make the as-built file agree with the event log as a session ends: a Ctrl-C between a
+        record's two writes (the log, then the file) leaves the file one record behind. The file's
+        model with the log replayed onto it is saved when that changed it."""
+        try:
+            on_disk = DesignModel.load(self.asbuilt_path)
+        except FvtreeError:
+            return  # unreadable: the check before a resume names it
+        if self._replay(on_disk):
+            try:
+                atomic_write_json(self.asbuilt_path, on_disk.to_data())
+            except OSError as exc:
+                print(f"{self.asbuilt_path}: behind {self.events_path} ({exc.strerror or exc}); a resume catches "
+                      "it up", file=sys.stderr)
