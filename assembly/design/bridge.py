@@ -53,7 +53,8 @@ class DesignBridge:
         """Log an event (to stderr if the log cannot be written) and show it to the links; whether
         it reached the log. `time` is the wall time; the run's `stamp` adds its tick, cell time
         `t` and the element in work, as the transition log has them."""
-        record = {"time": time.time(), **(self.stamp() if self.stamp is not None else {}), "event": kind, **data}
+        stamp = self.stamp() if self.stamp is not None else {}
+        record = {"time": time.time(), "event": kind, **data, **{k: v for k, v in stamp.items() if k not in data}}
         logged = append_json_line_or_stderr(self.events_path, record)
         self.unlogged += not logged
         self.notify(record)
