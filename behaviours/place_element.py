@@ -1,7 +1,9 @@
 """Place the element: announce the release (/task/asbuilt with status `placing`, written to the
 as-built model by `for_each_element` before the fingers move), open the gripper gently with the
 leaky integrator x_t = a x_{t-1} - (1 - a) L (L = -1 while releasing), check the element stayed
-standing between the fingers, record it `placed` with its as-built pose and load, and back out."""
+standing between the fingers, record it `placed` with its as-built pose, load and way out, back out,
+and record that (`retreated`): a run stopped in between finishes the way out when resumed
+(`behaviours.skill_kit.retreat`)."""
 
 from __future__ import annotations
 
@@ -11,8 +13,8 @@ from py_trees.common import Status
 from behaviours.skill_kit import keys
 from behaviours.skill_kit.base import Param, ProgramSkill, time_limit
 from behaviours.skill_kit.control import leaky_open
-from behaviours.skill_kit.geometry import translated
 from behaviours.skill_kit.registry import register
+from behaviours.skill_kit.retreat import retreat_path
 
 
 @register
@@ -51,11 +53,13 @@ class PlaceElement(ProgramSkill):
         if not (left.obj.present or right.obj.present):
             return self.fail(f"element {element['id']} not seen between the fingers after release: "
                              "it fell")
-        self.write(keys.ASBUILT, {**asbuilt, "status": "placed"})
-        for target_pose in (translated(pose, self.p.retract),
-                            translated(pose, np.add(self.p.retract, [0.0, 0.0, self.p.lift]))):
+        way_out = retreat_path(pose, self.p.retract, self.p.lift)
+        self.write(keys.ASBUILT, {**asbuilt, "status": "placed",
+                                  "retreat": {"path": [p.tolist() for p in way_out], "speed": self.p.speed}})
+        for target_pose in way_out:
             fault = yield from self.move(target_pose, self.p.speed)
             if fault:
                 return self.fail(fault)
+        self.write(keys.ASBUILT, {**asbuilt, "status": "retreated"})
         self.feedback_message = f"placed {element['id']}"
         return Status.SUCCESS

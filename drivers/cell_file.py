@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from fvfiles.errors import FvtreeError, did_you_mean, field_name
+from fvfiles.schema_check import schema_problem
 from fvfiles.yaml_source import Located, SourceError, load_file
 
 CELLS_DIR = Path(__file__).parent / "cells"
@@ -97,6 +98,20 @@ def section(path: Path, data: dict, key: str, required: bool = False, known: Ite
     if known is not None:
         check_known(path, value, known, f"{where}{key}.")
     return value
+
+
+def number(minimum: float, maximum: float, above: bool = False) -> dict:
+    """The JSON Schema of a finite number in [minimum, maximum] (above: minimum excluded)."""
+    return {"type": "number", "exclusiveMinimum" if above else "minimum": minimum, "maximum": maximum}
+
+
+def check_values(path: Path, mapping: dict, schemas: dict[str, dict], where: str = "") -> None:
+    """CellFileError naming the field for the first value of `mapping` that breaks its JSON Schema
+    in `schemas` (by field name; numbers finite, never booleans or strings): a cell file's value of
+    the wrong type is refused when the file is read, not met as a TypeError in the middle of a run."""
+    for key, schema in schemas.items():
+        if key in mapping and (problem := schema_problem(mapping[key], schema)):
+            raise CellFileError(path, f"{where}{key}", problem)
 
 
 def config_from(path: Path, where: str, cls: type, values: dict, driver: str | None = None) -> Any:

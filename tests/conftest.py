@@ -30,6 +30,16 @@ def clean_blackboard():
 
 
 @pytest.fixture
+def shipped_designs_allowed(monkeypatch):
+    """Trees written outside the repository (a temp dir, a BT.CPP import) may name the shipped
+    designs in trees/design/: a design, like an include, is read only under the tree's folder or
+    one FVTREE_INCLUDE_PATH allows (`fvtree --allow-include DIR`)."""
+    from assembly.language.reader import INCLUDE_PATH
+
+    monkeypatch.setenv(INCLUDE_PATH, str(TREES))
+
+
+@pytest.fixture
 def tree_file(tmp_path):
     """Write a tree (and any extra files) into a temp dir; returns the tree's path."""
 

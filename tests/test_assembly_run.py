@@ -51,7 +51,7 @@ def test_run_directory_holds_the_as_built_model_and_logs(full_run):
         node = asbuilt.graph.nodes[eid]
         assert node["status"] == "placed" and len(node["asbuilt_pose"]) == 6 and node["measured_load"] > 0
     events = [e["event"] for e in lines(run_dir / "events.jsonl")]
-    assert events == ["start", "placing", "placed", "placing", "placed", "end"]
+    assert events == ["start", "placing", "placed", "retreated", "placing", "placed", "retreated", "end"]
     assert json.loads((run_dir / "run.json").read_text())["tree"] == "architectural_assembly"
     transitions = lines(run_dir / "transitions.jsonl")
     assert transitions[0]["tick"] == 0 and {"t", "node", "from", "to", "feedback"} <= set(transitions[0])

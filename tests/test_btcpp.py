@@ -210,7 +210,7 @@ def test_what_bt_cpp_cannot_say_is_refused_at_export(tmp_path, capsys):
     assert "t.yaml:4: short: cannot export" in err and "msec" in err
 
 
-def test_an_empty_element_list_is_refused_at_export(tmp_path, capsys):
+def test_an_empty_element_list_is_refused_at_export(tmp_path, capsys, shipped_designs_allowed):
     """An empty port is a param left out (BT.CPP's generated XSD needs that default), so
     `elements: []` has no spelling of its own."""
     design = Path(__file__).resolve().parents[1] / "trees" / "design" / "two_bays.json"
@@ -227,7 +227,7 @@ def test_an_empty_element_list_is_refused_at_export(tmp_path, capsys):
     assert "t.yaml:5: each: cannot export: 'elements: []'" in capsys.readouterr().err
 
 
-def test_export_and_import_on_the_command_line(tmp_path, capsys):
+def test_export_and_import_on_the_command_line(tmp_path, capsys, shipped_designs_allowed):
     root = Path(__file__).resolve().parents[1]
     xml, back = tmp_path / "a.xml", tmp_path / "sub" / "a.yaml"
     back.parent.mkdir()

@@ -173,7 +173,7 @@ def test_what_validation_finds_is_said_of_the_xml_line(tmp_path):
     assert "v.xml:8: Sequence/nowhere: give exactly one of 'pose' or 'offset'" in text
 
 
-def test_a_file_exported_with_the_old_processing_instruction_still_imports(tmp_path):
+def test_a_file_exported_with_the_old_processing_instruction_still_imports(tmp_path, shipped_designs_allowed):
     tree = ROOT / "trees" / "assembly.yaml"
     text = export_tree(tree, tmp_path)
     start, end = text.index("<!-- fvtree "), text.index("-->")

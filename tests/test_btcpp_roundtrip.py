@@ -46,7 +46,7 @@ def statuses(doc) -> list[dict[str, str]]:
 
 
 @pytest.mark.parametrize("tree", TREES, ids=[t.stem for t in TREES])
-def test_a_shipped_tree_survives_the_round_trip(tree, tmp_path):
+def test_a_shipped_tree_survives_the_round_trip(tree, tmp_path, shipped_designs_allowed):
     xml, back = round_trip(tree, tmp_path)
     XSD.validate(str(xml))
     original, returned = load_tree(tree), load_tree(back)
@@ -54,7 +54,7 @@ def test_a_shipped_tree_survives_the_round_trip(tree, tmp_path):
     assert statuses(returned) == statuses(original)
 
 
-def test_the_nodes_model_lists_every_skill_with_typed_ports(tmp_path):
+def test_the_nodes_model_lists_every_skill_with_typed_ports(tmp_path, shipped_designs_allowed):
     xml, _ = round_trip(ROOT / "trees" / "assembly.yaml", tmp_path)
     model = XSD.to_dict(str(xml))["TreeNodesModel"]
     actions = {a["@ID"]: a for a in model["Action"]}

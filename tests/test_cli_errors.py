@@ -189,7 +189,7 @@ def test_validate_a_cell_file(tmp_path, capsys):
         assert message in err, err
 
 
-def test_element_ids_are_checked_against_the_design(tree_file, capsys):
+def test_element_ids_are_checked_against_the_design(tree_file, capsys, shipped_designs_allowed):
     design = TREES / "design" / "two_bays.json"
     text = (f"version: 1\nname: t\ndesign: {design}\nroot:\n  for_each_element: each\n  elements: [E1, E9]\n"
             "  child: {skill: locate_element}\n")

@@ -1,7 +1,7 @@
 """Nothing leaks, nothing explodes: an error quotes a key only when it looks like a field name
 (never the lines of a file that is no tree: before, `fvtree validate /etc/shadow` printed each
 password hash as "unknown top-level field 'root:$6$...'"); `include:` reads only files under the
-tree's folder unless allowed; a model file's arrays are sized from the zip directory and the .npy
+tree's folder unless allowed, and so does `design:`; a model file's arrays are sized from the zip directory and the .npy
 headers before any is inflated (before: a 2 MB file holding 2 GiB of zeros took 2.2 GB of memory
 and 14 s here, 4.4 GB and 103 s on a loaded machine); and fvtree starts from an installation its
 user cannot write (before: `cannot cache function 'pairwise_sum': no locator available`)."""
@@ -125,6 +125,28 @@ def test_an_allowed_folder_may_be_included_from(tmp_path, outside, capsys, monke
     assert fvtree(capsys, "validate", str(tree))[0] == 0
     # allowed or not, a file that is no subtree file is not printed
     assert "SECRET" not in fvtree(capsys, "validate", str(tree_including(tmp_path, str(outside / "shadow"))))[1]
+
+
+@pytest.mark.parametrize("how", ["absolute", "dotdot", "symlink"])
+def test_a_design_outside_the_trees_folder_is_refused_unread_like_an_include(tmp_path, outside, capsys, how,
+                                                                             monkeypatch):
+    """`design: /etc/shadow` (or a `../` path, or a link leading out) was opened and parsed."""
+    monkeypatch.delenv("FVTREE_INCLUDE_PATH", raising=False)  # and restored after --allow-include set it
+    shutil.copy(ROOT / "trees" / "design" / "two_bays.json", outside / "design.json")
+    (tmp_path / "tree").mkdir()
+    link = tmp_path / "tree" / "inside.json"
+    given = {"absolute": str(outside / "shadow"), "dotdot": "../elsewhere/shadow", "symlink": "inside.json"}[how]
+    if how == "symlink":
+        link.symlink_to(outside / "shadow")
+    tree = tmp_path / "tree" / "t.yaml"
+    tree.write_text(f"version: 1\nname: t\ndesign: {given}\n" + NODE)
+    code, text = fvtree(capsys, "validate", str(tree))
+    assert code == 2 and "SECRET" not in text
+    assert f"{tree}:3: design {given!r}: outside the tree's folder {tree.parent.resolve()}, so it is not read" in text
+    tree.write_text(f"version: 1\nname: t\ndesign: {outside / 'design.json'}\n" + NODE)
+    assert fvtree(capsys, "validate", str(tree))[0] == 2
+    code, text = fvtree(capsys, "--allow-include", str(outside), "validate", str(tree))
+    assert code == 0, text
 
 
 # ---- model files: sized before they are inflated ----------------------------------------------

@@ -458,8 +458,8 @@ def prop_heavy_plate(tmp_path, regrasps: int):
     (tmp_path / "heavy.yaml").write_text(text)
     design = DesignModel.load(TREES / "design" / "three_bays.json")
     cell = load_cell("sim", 30, "assembly", design.scene_args())
-    with pytest.MonkeyPatch.context() as patch:  # the tree in tmp_path includes the project's subtree
-        patch.setenv("FVTREE_INCLUDE_PATH", str(TREES / "subtrees"))
+    with pytest.MonkeyPatch.context() as patch:  # the tree in tmp_path includes the project's subtree and design
+        patch.setenv("FVTREE_INCLUDE_PATH", str(TREES))
         h = TreeHarness.from_file(tmp_path / "heavy.yaml", cell=cell, design=design)
     return h, cell.world, h.run_until_done(6000)
 

@@ -4,14 +4,16 @@ live design links."""
 
 from __future__ import annotations
 
+import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from assembly.design.model import DesignModel
-from fvfiles.errors import RecordNotWritten
+from fvfiles.errors import FvtreeError, RecordNotWritten
 from fvfiles.json_files import append_json_line_or_stderr, atomic_write_json, read_json_lines
 
 
@@ -35,6 +37,9 @@ class DesignBridge:
         self.links = list(links)
         self.dispatcher = dispatcher  # hands out the next element when several cells share a design
         self.unlogged = 0  # events that went to stderr: the event log could not be written
+        self.stamp: Callable[[], dict] | None = None  # the run's {tick, t, element} now (the tick loop sets it)
+        # {element, path, speed} of a way out a stopped session began and did not finish (`catch_up`)
+        self.unfinished_retreat: dict | None = None
         atomic_write_json(self.asbuilt_path, model.to_data())
 
     def next_element(self, remaining: list[str]) -> str | None:
@@ -46,8 +51,10 @@ class DesignBridge:
 
     def event(self, kind: str, **data: Any) -> bool:
         """Log an event (to stderr if the log cannot be written) and show it to the links; whether
-        it reached the log."""
-        record = {"time": time.time(), "event": kind, **data}
+        it reached the log. `time` is the wall time; the run's `stamp` adds its tick, cell time
+        `t` and the element in work, as the transition log has them."""
+        stamp = self.stamp() if self.stamp is not None else {}
+        record = {"time": time.time(), "event": kind, **data, **{k: v for k, v in stamp.items() if k not in data}}
         logged = append_json_line_or_stderr(self.events_path, record)
         self.unlogged += not logged
         self.notify(record)
@@ -81,7 +88,9 @@ class DesignBridge:
         return None
 
     def close(self) -> None:
-        """Close the links (each sends what it still holds first, within its own time limit)."""
+        """Settle the as-built file with the log (`settle`), then close the links (each sends what
+        it still holds first, within its own time limit)."""
+        self.settle()
         for link in self.links:
             link.close()
 
@@ -89,9 +98,16 @@ class DesignBridge:
         """The element is about to be released at `pose`: a resumed run must not pick it again."""
         self._record("placing", eid, pose, load)
 
-    def record_placement(self, eid: str, pose, load: float | None) -> None:
-        """The element stands at `pose` carrying `load`."""
-        self._record("placed", eid, pose, load)
+    def record_placement(self, eid: str, pose, load: float | None, retreat: dict | None = None) -> None:
+        """The element stands at `pose` carrying `load`; `retreat` ({path: TCP poses, speed}) is the
+        way out the arm takes next, which a run resumed before its `retreated` record finishes."""
+        extra = None if retreat is None else {"path": np.asarray(retreat["path"], float).round(6).tolist(),
+                                              "speed": float(retreat["speed"])}
+        self._record("placed", eid, pose, load, retreat=extra)
+
+    def record_retreat(self, eid: str) -> None:
+        """The arm has backed out of the placed element (the way out its `placed` record gave)."""
+        self.event("retreated", element=eid)
 
     def mark(self, eid: str, status: str) -> None:
         """A person's verdict on an element left `placing`: `placed` (it stands where recorded)
@@ -99,12 +115,13 @@ class DesignBridge:
         node = self.model.graph.nodes[eid]
         self._record("marked", eid, node.get("asbuilt_pose"), node.get("measured_load"), status)
 
-    def _record(self, kind: str, eid: str, pose, load: float | None, status: str | None = None) -> None:
+    def _record(self, kind: str, eid: str, pose, load: float | None, status: str | None = None,
+                retreat: dict | None = None) -> None:
         data = {"element": eid, "status": status or kind,
                 "pose": None if pose is None else np.asarray(pose, float).round(6).tolist(),
                 "load": None if load is None else round(float(load), 6)}
         self._apply(data)
-        logged = self.event(kind, **data)
+        logged = self.event(kind, **data, **({} if retreat is None else {"retreat": retreat}))
         try:
             atomic_write_json(self.asbuilt_path, self.model.to_data())
         except OSError as exc:
@@ -112,8 +129,8 @@ class DesignBridge:
             raise RecordNotWritten(f"cannot write the as-built model ({exc.strerror or exc}); "
                                    f"the {kind} record of {eid} is in {kept}", str(self.asbuilt_path)) from exc
 
-    def _apply(self, record: dict) -> None:
-        node = self.model.graph.nodes[record["element"]]
+    def _apply(self, record: dict, model: DesignModel | None = None) -> None:
+        node = (model or self.model).graph.nodes[record["element"]]
         node["status"] = record["status"]
         for name, key in (("asbuilt_pose", "pose"), ("measured_load", "load")):
             if record["status"] == "planned":
@@ -123,15 +140,42 @@ class DesignBridge:
 
     def catch_up(self) -> list[str]:
         """Replay the event log's records onto the model (those a failed or interrupted model
-        write missed), save it if anything changed, and return the elements changed."""
-        changed = []
+        write missed), save it if anything changed, and return the elements changed; note the way
+        out of the last placed element when the log ends before its `retreated` record."""
+        self.unfinished_retreat = None
         for record in read_json_lines(self.events_path):
-            if record.get("event") in self.RECORDS and record.get("element") in self.model.graph:
-                node = self.model.graph.nodes[record["element"]]
-                before = (node.get("status"), node.get("asbuilt_pose"), node.get("measured_load"))
-                self._apply(record)
-                if (node.get("status"), node.get("asbuilt_pose"), node.get("measured_load")) != before:
-                    changed.append(record["element"])
+            if record.get("event") == "placed" and isinstance(record.get("retreat"), dict):
+                self.unfinished_retreat = {"element": record.get("element"), **record["retreat"]}
+            elif record.get("event") == "retreated" or record.get("event") in self.RECORDS:
+                self.unfinished_retreat = None  # backed out, or another element begun
+        changed = self._replay(self.model)
         if changed:
             atomic_write_json(self.asbuilt_path, self.model.to_data())
         return changed
+
+    def _replay(self, model: DesignModel) -> list[str]:
+        """Apply the event log's element records to `model`; the elements that changed."""
+        changed = []
+        for record in read_json_lines(self.events_path):
+            if record.get("event") in self.RECORDS and record.get("element") in model.graph:
+                node = model.graph.nodes[record["element"]]
+                before = (node.get("status"), node.get("asbuilt_pose"), node.get("measured_load"))
+                self._apply(record, model)
+                if (node.get("status"), node.get("asbuilt_pose"), node.get("measured_load")) != before:
+                    changed.append(record["element"])
+        return changed
+
+    def settle(self) -> None:
+        """Make the as-built file agree with the event log as a session ends: a Ctrl-C between a
+        record's two writes (the log, then the file) leaves the file one record behind. The file's
+        model with the log replayed onto it is saved when that changed it."""
+        try:
+            on_disk = DesignModel.load(self.asbuilt_path)
+        except FvtreeError:
+            return  # unreadable: the check before a resume names it
+        if self._replay(on_disk):
+            try:
+                atomic_write_json(self.asbuilt_path, on_disk.to_data())
+            except OSError as exc:
+                print(f"{self.asbuilt_path}: behind {self.events_path} ({exc.strerror or exc}); a resume catches "
+                      "it up", file=sys.stderr)

@@ -109,6 +109,19 @@ def include_roots(tree_file: str) -> list[Path]:
     return [Path(tree_file).resolve().parent, *extra]
 
 
+def _within(base: Path, rel: str, roots: list[Path], what: str, file: str, line: int) -> Path:
+    """The file `rel` (relative to `base`) names, resolved, when it lies under one of `roots`
+    (`include_roots`); a TreeError at `file:line` otherwise, which names `what` and never reads it."""
+    try:
+        target = (base / rel).resolve()
+    except (RuntimeError, OSError) as exc:  # a symbolic-link loop (RuntimeError before Python 3.13)
+        raise TreeError(f"{what}: cannot be resolved ({exc})", file, line) from None
+    if not any(target.is_relative_to(root) for root in roots):
+        raise TreeError(f"{what}: outside the tree's folder {roots[0]}, so it is not read", file, line,
+                        hint=f"allow its folder with `fvtree --allow-include DIR ...` or {INCLUDE_PATH}=DIR")
+    return target
+
+
 def _collect_subtrees(doc: Located, file: str, out: dict[str, SubtreeDef], errors: list[TreeError],
                       seen_files: tuple[str, ...], roots: list[Path]) -> None:
     """Subtrees of this file and, recursively, of its includes (their fields are checked with the
@@ -119,14 +132,9 @@ def _collect_subtrees(doc: Located, file: str, out: dict[str, SubtreeDef], error
     for i, rel in enumerate(includes):
         line = includes.item_lines[i]
         try:
-            target = str((base / rel).resolve())
-        except (RuntimeError, OSError) as exc:  # a symbolic-link loop (RuntimeError before Python 3.13)
-            errors.append(TreeError(f"include {rel!r}: cannot be resolved ({exc})", file, line))
-            continue
-        if not any(Path(target).is_relative_to(root) for root in roots):
-            errors.append(TreeError(f"include {rel!r}: outside the tree's folder {roots[0]}, so it is not read",
-                                    file, line, hint="allow its folder with `fvtree --allow-include DIR ...` "
-                                                     f"or {INCLUDE_PATH}=DIR"))
+            target = str(_within(base, rel, roots, f"include {rel!r}", file, line))
+        except TreeError as exc:
+            errors.append(exc)
             continue
         if target in seen_files:
             errors.append(TreeError(f"include cycle: {' -> '.join(seen_files + (target,))}", file, line))
@@ -148,8 +156,21 @@ def _collect_subtrees(doc: Located, file: str, out: dict[str, SubtreeDef], error
             errors.append(TreeError(f"subtree {name!r} is defined twice", file, line,
                                     hint=f"also in {out[name].file}:{out[name].line}"))
             continue
-        params = body.get("params") if isinstance(body.get("params"), dict) else None
+        declared = body.get("params")
+        params = _named_params(declared, name, errors) if isinstance(declared, Located) else None
         out[name] = SubtreeDef(name, subtree_params(params, body, name, errors), body["root"], file, line)
+
+
+def _named_params(params: Located, subtree: str, errors: list[TreeError]) -> Located:
+    """A subtree's param declarations whose names are names: `$name` refers to them, and messages
+    list them. Any other key (`null:`, `1:`, a line of some other file) is refused at its line."""
+    named = Located((key, decl) for key, decl in params.items() if isinstance(key, str) and key.isidentifier())
+    named.file, named.line = params.file, params.line
+    named.key_lines = {key: params.line_of(key) for key in named}
+    errors.extend(TreeError(f"param name {field_name(key)} is not a name (letters, digits and _)", params.file,
+                            params.line_of(key), f"subtrees/{subtree}", "a param is used as $name")
+                  for key in params if key not in named)
+    return named
 
 
 def _cell_settings(doc: Located, file: str, errors: list[TreeError]) -> tuple[float, str]:
@@ -172,9 +193,16 @@ def with_scene(doc: TreeDocument, scene: str) -> TreeDocument:
 
 
 def _design(doc: Located, file: str, errors: list[TreeError]) -> DesignModel | None:
-    """The design model the tree names (relative to the tree file), if any."""
+    """The design model the tree names (relative to the tree file, and under its folder or one
+    allowed for includes, like an include: `design: /etc/passwd` is not read), if any."""
     if not _fits(doc, "design"):
         return None  # none, or not a path (reported with the fields)
+    try:
+        _within(Path(file).parent, str(doc["design"]), include_roots(file), f"design {doc['design']!r}", file,
+                doc.line_of("design"))
+    except TreeError as exc:
+        errors.append(exc)
+        return None
     try:
         return DesignModel.load(Path(file).parent / str(doc["design"]))
     except FvtreeError as exc:

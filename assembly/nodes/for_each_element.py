@@ -10,6 +10,7 @@ from assembly.design.model import WAIT, DesignModel
 from assembly.nodes.decorators import DirectDecorator
 from behaviours.skill_kit import keys
 from behaviours.skill_kit.base import KeyReads
+from behaviours.skill_kit.retreat import FinishRetreat
 from drivers.protocols import World
 
 
@@ -23,9 +24,11 @@ class ForEachElement(DirectDecorator, py_trees.decorators.Decorator):
     entry on /task/element (and the plates on /task/plates). After each tick of the child it
     hands a new /task/asbuilt record of the element to the design bridge, which writes it
     durably before the next tick: `placing` (the skill is about to open the fingers) and then
-    `placed`. SUCCESS when every element is placed; FAILURE as soon as one element fails, or its
-    child succeeds without a `placed` record (the model keeps what was placed, so a re-run
-    resumes there).
+    `placed`, then `retreated` once the arm has backed out. SUCCESS when every element is placed;
+    FAILURE as soon as one element fails, or its child succeeds without a `placed` record (the
+    model keeps what was placed, so a re-run resumes there). A run resumed after a session that
+    stopped between an element's `placed` and `retreated` records first finishes that way out
+    (`FinishRetreat`), from where the arm stands: only then the next element, or the rest of the tree.
     """
 
     design: DesignModel  # from `setup(design=...)`, which refuses a tree without one
@@ -39,6 +42,7 @@ class ForEachElement(DirectDecorator, py_trees.decorators.Decorator):
         self._node: dict | None = None  # the current element's attributes in the design graph (live)
         self.waiting = False  # the dispatcher said to wait for another cell
         self._record: dict | None = None  # the last /task/asbuilt record handed on
+        self.retreat: FinishRetreat | None = None  # the way out a stopped session left unfinished
         self.bb = self.attach_blackboard_client(name=name)
         for key in (keys.ELEMENT, keys.PLATES):
             self.bb.register_key(key=key, access=Access.WRITE)
@@ -52,6 +56,11 @@ class ForEachElement(DirectDecorator, py_trees.decorators.Decorator):
         if design is None:
             raise RuntimeError(f"{self.name}: for_each_element needs a design model (tree 'design:')")
         self.design = design
+        way_out = self.bridge.unfinished_retreat if self.bridge is not None else None
+        if way_out is not None:
+            self.retreat = FinishRetreat(f"{self.name}/finish_retreat", way_out["element"], way_out["path"],
+                                         way_out["speed"])
+            self.retreat.setup(**kwargs)
 
     def remaining(self) -> list[str]:
         order = self.design.build_order()
@@ -109,8 +118,14 @@ class ForEachElement(DirectDecorator, py_trees.decorators.Decorator):
 
     def _status_without_child(self) -> Status | None:
         """The start of a tick: publish the next element when starting or waiting; this tick's
-        status when the child is not to tick (waiting, a placement to check, nothing left), else None."""
-        if self.status != Status.RUNNING:
+        status when the child is not to tick (waiting, a placement to check, nothing left, the way
+        out of an element placed before a resume), else None."""
+        if self.retreat is not None:
+            status = self._finish_retreat()
+            if status is not None:
+                return status
+            self.initialise()
+        elif self.status != Status.RUNNING:
             self.initialise()
         elif self.waiting:
             self._publish_next()
@@ -125,6 +140,29 @@ class ForEachElement(DirectDecorator, py_trees.decorators.Decorator):
             return Status.SUCCESS
         return None
 
+    def _finish_retreat(self) -> Status | None:
+        """One tick of the way out left unfinished: RUNNING or FAILURE, or None once backed out."""
+        retreat = self.retreat
+        assert retreat is not None
+        retreat.tick_once()
+        self.feedback_message = retreat.feedback_message
+        if retreat.status == Status.RUNNING:
+            return Status.RUNNING
+        if retreat.status == Status.FAILURE:
+            if self.bridge is not None:
+                self.bridge.event("failed", element=retreat.element, node=retreat.name,
+                                  feedback=retreat.feedback_message)
+            return Status.FAILURE
+        if self.bridge is not None:
+            self.bridge.record_retreat(retreat.element)
+        self.retreat = None
+        return None
+
+    def terminate(self, new_status: Status) -> None:
+        if self.retreat is not None and self.retreat.status == Status.RUNNING:
+            self.retreat.stop(new_status)  # halted while backing out: the arm stops
+        super().terminate(new_status)
+
     def update(self) -> Status:
         status = self.decorated.status
         self._hand_on_record()
@@ -136,14 +174,14 @@ class ForEachElement(DirectDecorator, py_trees.decorators.Decorator):
             return Status.FAILURE
         if status != Status.SUCCESS:
             return status
-        if self._record is None or self._record.get("status", "placed") != "placed":
+        if self._record is None or self._record.get("status", "placed") not in ("placed", "retreated"):
             self.feedback_message = f"{self.current}: child succeeded without recording an as-built pose"
             return Status.FAILURE
         self._publish_next()
         return Status.SUCCESS if self.current is None and not self.waiting else Status.RUNNING
 
     def _hand_on_record(self) -> None:
-        """Record a new /task/asbuilt record of the current element (`placing` or `placed`)."""
+        """Record a new /task/asbuilt record of the current element (`placing`, `placed` or `retreated`)."""
         record = self.reads.get(keys.ASBUILT)
         if record is None or record is self._record or record.get("element") != self.current:
             return
@@ -151,9 +189,12 @@ class ForEachElement(DirectDecorator, py_trees.decorators.Decorator):
         status = record.get("status", "placed")
         element, node = self.current, self._node
         assert element is not None and node is not None  # the child ticks only with an element to build
-        if self.bridge is None:
+        if status == "retreated":
+            if self.bridge is not None:
+                self.bridge.record_retreat(element)
+        elif self.bridge is None:
             node["status"] = status
         elif status == "placing":
             self.bridge.record_placing(element, record["pose"], record.get("load"))
         else:
-            self.bridge.record_placement(element, record["pose"], record.get("load"))
+            self.bridge.record_placement(element, record["pose"], record.get("load"), record.get("retreat"))

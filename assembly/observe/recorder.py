@@ -293,8 +293,8 @@ class RunRecorder:
         details = {k: v for k, v in event.items() if k not in ("time", "event", "traceback")}
         level = END_LEVELS.get(event.get("status", ""), "WARN") if kind == "end" else EVENT_LEVELS.get(kind, "INFO")
         self._at(tick, now, "events", rr.TextLog(f"{kind} {json.dumps(details)}", level=level))
-        eid = event.get("element")
-        if self._design is not None and eid in self._design.elements() and event.get("status"):
+        eid = event.get("element")  # every event names the element in work; these change its status
+        if self._design is not None and eid in self._design.elements() and kind in ("placing", "placed", "marked"):
             element = {"id": eid, **self._design.elements()[eid], "asbuilt_pose": event.get("pose")}
             self._at(tick, now, f"cell/elements/{eid}", element_box(element, event["status"]))
 

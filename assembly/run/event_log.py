@@ -2,7 +2,9 @@
 `asbuilt.json`) must not be replayed onto the cell. Every line of the event log is a JSON object
 with an `event` name and a finite `time`; each record that changes an element (`placing`,
 `placed`, `marked`) names an element of the design, carries a status its event may carry, a pose
-of 6 finite numbers whose position lies in the cell's safety box, and a finite load or none; and
+of 6 finite numbers whose position lies in the cell's safety box, and a finite load or none (a
+`placed` record's way out, which a resume drives the arm along, is poses in the box at a positive
+speed; a `retreated` record names a placed element); and
 the records of one element follow the order a run writes them: `placing`, then `placed` or a
 person's mark, and nothing after `placed` (a `planned` mark of a placed element would build it
 a second time: only an element left `placing` may be marked). The last line may be torn (a
@@ -96,6 +98,23 @@ class _EventCheck:
             self._fail(number, "time", f"must be a finite number, got {short_json(stamp)}")
         if event in STATUS_OF:
             self.element_record(number, event, record)
+        if event == "placed" and "retreat" in record:
+            self.way_out(number, record["retreat"])
+        if event == "retreated" and self.status.get(str(record.get("element"))) != "placed":
+            self._fail(number, "element", f"the way out of {short_json(record.get('element'))}, "
+                                          "which is no element placed by then")
+
+    def way_out(self, number: int, retreat: Any) -> None:
+        """A `placed` record's way out: {path: [poses in the box], speed: m/s above 0}."""
+        if not isinstance(retreat, dict) or not isinstance(retreat.get("path"), list) or not retreat["path"]:
+            self._fail(number, "retreat", f"must be {{path: [poses], speed}}, got {short_json(retreat)}")
+        for pose in retreat["path"]:
+            problem = _pose_problem(pose, self.box)
+            if problem:
+                self._fail(number, "retreat.path", problem)
+        speed = retreat.get("speed")
+        if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not (math.isfinite(speed) and speed > 0):
+            self._fail(number, "retreat.speed", f"must be a number above 0, got {short_json(speed)}")
 
     def element_record(self, number: int, event: str, record: dict) -> None:
         eid = record.get("element")

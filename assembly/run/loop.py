@@ -36,7 +36,7 @@ from assembly.run.stop_policy import Stop, StopPolicy
 from assembly.run.storage import RunStorage
 from assembly.run.supervisor import Supervision, Supervisor
 from assembly.run.tip import Tip
-from assembly.run.transitions import TransitionLog
+from assembly.run.transitions import TransitionLog, element_in_work
 from drivers.cell import Cell
 from drivers.protocols import PerceptionSource
 from fvfiles.errors import RecordNotWritten
@@ -134,9 +134,13 @@ class Runner:
         self.recorder = recorder
         self.behaviour_tree.add_pre_tick_handler(self.stop_policy.before_tick)
         self.behaviour_tree.add_pre_tick_handler(self.perception)
+        if self.log is not None:
+            self.behaviour_tree.add_pre_tick_handler(self.log.before_tick)
         if self.supervisor is not None:
             self.behaviour_tree.add_pre_tick_handler(self.supervisor)
             self.stop_policy.checks.insert(0, self.supervisor.check)
+        if bridge is not None:  # events stamped like the transitions: the run's tick, cell time, element
+            bridge.stamp = self.stamp
         self.monitor = monitor
         for handler in (self._kick_watchdog, self.tip, self.load_profiles, self.log, self.recorder, self.progress,
                         monitor):
@@ -145,6 +149,13 @@ class Runner:
         if monitor is not None:
             monitor.bind(self._hold)
         self._set_up = False
+
+    def stamp(self) -> dict:
+        """The run's tick (going on from earlier sessions' in the transition log), cell time and
+        element in work, for the event log's records."""
+        base = self.log.tick_base if self.log is not None else 0
+        return {"tick": base + self.behaviour_tree.count, "t": round(self.cell.clock.now(), 6),
+                "element": element_in_work()}
 
     def setup(self) -> None:
         """Set up every node with the cell, the design model and the design bridge."""

@@ -12,7 +12,7 @@ import numpy as np
 
 from drivers.cell import Cell
 from drivers.cell_builders import CellRequest
-from drivers.cell_file import CellFileError, check_known, config_from, section
+from drivers.cell_file import CellFileError, check_known, check_values, config_from, number, section
 from drivers.clock import SimClock
 from drivers.safe_gripper import SafeGripper
 from drivers.safety import SafeArm, SafetyLimits
@@ -26,6 +26,9 @@ from drivers.sim.scenes import build_world, world_settings
 FIELDS = {"kind", "name", "home", "safety", "supervision", "gripper", "sensor", "world", "perception", "pixel_workers",
           "force_sensor", "arm"}
 PERCEPTION_MODES = ("signals", "pixels")
+# The simulated gripper's settings: a Robotiq 2F-85 class hand (widths in m, stiffness in N/m, speed in m/s).
+GRIPPER_VALUES = {"max_width": number(0.0, 0.5, above=True), "gel_stiffness": number(0.0, 1e7, above=True),
+                  "max_speed": number(0.0, 1.0, above=True)}
 
 
 def build_sim_cell(path: Path, data: dict, request: CellRequest) -> Cell:
@@ -46,7 +49,9 @@ def build_sim_cell(path: Path, data: dict, request: CellRequest) -> Cell:
     home = np.array(data.get("home", [0.0, 0.0, 0.5, np.pi, 0.0, 0.0]), dtype=float)
     # The arm answers as a UR controller: after a command latency, within acceleration limits.
     arm = KinematicArm(clock, home, motion=config_from(path, "arm", ArmMotion, section(path, data, "arm")))
-    gripper = SimGripper(**section(path, data, "gripper", known={"max_width", "gel_stiffness", "max_speed"}))
+    gripper_settings = section(path, data, "gripper", known=GRIPPER_VALUES)
+    check_values(path, gripper_settings, GRIPPER_VALUES, "gripper.")
+    gripper = SimGripper(**gripper_settings)
     settings = world_settings(path, data)
     look = _look(path, settings[0].get("appearance"), request.seed)  # checked in both modes, used in pixel mode
     world, sensors, sense = build_world(path, settings, arm, gripper, clock, request.scene, request.scene_args,

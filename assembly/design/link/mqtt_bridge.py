@@ -36,7 +36,8 @@ from assembly.design.model import DesignModel
 
 log = logging.getLogger(__name__)
 STATUS_EVENTS = {"picking": "picking", "placing": "placing", "placed": "placed", "failed": "failed"}
-RUN_EVENTS = ("start", "halted", "estop", "fault", "crashed", "timeout", "failed", "design_updated", "end")
+RUN_EVENTS = ("start", "halted", "estop", "fault", "crashed", "timeout", "failed", "retreated", "design_updated",
+              "end")
 MAX_QUEUED = 32  # updates waiting for the next element boundary
 MAX_QUEUED_BYTES = 1_000_000  # their raw size together
 KEPT_DIGESTS = 1024  # digests of the last messages taken, to drop repeats

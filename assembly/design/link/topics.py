@@ -4,7 +4,7 @@ codec: COMPAS objects travel as {"dtype": ..., "data": ...} and come back as COM
 One cell (`fvtree run ... --bridge mqtt://HOST:PORT --cell-name NAME`), under `fvtree/NAME/`:
   plan       out, retained: the live design as a COMPAS Graph (compas_data), after every change
   status     out: {"element", "status", "frame" (Frame or null), "load" (N or null), "cell", "time"}
-  events     out: a run event {"event": start|halted|estop|fault|crashed|failed|design_updated|end, ...}
+  events     out: a run event {"event": start|halted|estop|fault|crashed|failed|retreated|design_updated|end, ...}
   updates    in:  {"update": ID, "elements": [element nodes], "edges": [{"source", "target"}]}
   conflicts  out: {"update", "element", "reason"}: a change refused (the element is built or being built)
   errors     out: {"update" (or null), "error", "topic"}: a message that could not be read or applied

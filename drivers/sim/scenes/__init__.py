@@ -8,7 +8,7 @@ import dataclasses
 from collections.abc import Callable
 from pathlib import Path
 
-from drivers.cell_file import CellFileError, section
+from drivers.cell_file import CellFileError, check_values, number, section
 from drivers.protocols import Clock, PerceptionSource, SceneArm, SceneGripper, World
 from drivers.sim.models.fingervision_model import SensorModel
 from drivers.sim.models.skin import Skin
@@ -36,12 +36,24 @@ SCENE_PACKAGES: dict[str, str] = dict.fromkeys(SCENES, "fvtree")
 # `profile`: a profile's name or path; any of the profile's numbers overrides the profile's value
 SENSOR_FIELDS = set(SensorModel.__dataclass_fields__) - {"finger", "seed"} | set(NUMBERS) | {"appearance"}
 WORLD_FIELDS = set(assembly.SceneConfig.__dataclass_fields__) - {"seed"}
+# What each setting may be: checked when the cell file is read (a string for a number would fail mid-run).
+_PROFILE_VALUES = {name: ({"type": "array", "items": number(1, 4096), "minItems": 2, "maxItems": 2}
+                          if name == "image_size" else number(0.0, 1e6)) for name in NUMBERS}
+SENSOR_VALUES = {**_PROFILE_VALUES, "noise_px": {"anyOf": [number(0.0, 100.0), {"type": "null"}]},
+                 "normal_mode": {"enum": ["xy_norm", "marker_size"]}, "pipeline_errors": {"type": "boolean"},
+                 "profile": {"type": "string", "minLength": 1}}
+WORLD_VALUES = {"ground_stiffness": number(0.0, 1e8, above=True), "contact_stiffness": number(0.0, 1e8, above=True),
+                "friction": number(0.0, 10.0), "view_half": number(0.0, 0.1, above=True),
+                "finger_reach": number(0.0, 0.2, above=True), "force_noise": number(0.0, 1.0)}
 
 
 def world_settings(path: Path, data: dict, where: str = "") -> tuple[dict, dict]:
-    """The `sensor:` and `world:` settings of a cell file section at `where`, checked."""
-    return (section(path, data, "sensor", known=SENSOR_FIELDS, where=where),
-            section(path, data, "world", known=WORLD_FIELDS, where=where))
+    """The `sensor:` and `world:` settings of a cell file section at `where`, checked (fields and values)."""
+    sensor = section(path, data, "sensor", known=SENSOR_FIELDS, where=where)
+    world = section(path, data, "world", known=WORLD_FIELDS, where=where)
+    check_values(path, sensor, SENSOR_VALUES, f"{where}sensor.")
+    check_values(path, world, WORLD_VALUES, f"{where}world.")
+    return sensor, world
 
 
 def sensor_profile(path: Path, name: object) -> SensorProfile:
@@ -65,7 +77,8 @@ def build_world(path: Path, settings: tuple[dict, dict], arm: SceneArm, gripper:
     sensor_cfg = dict(sensor_cfg)
     profile = sensor_profile(path, sensor_cfg.pop("profile", DEFAULT_PROFILE))
     sensor_cfg.pop("appearance", None)  # pixel mode's camera look (drivers/sim/cell.py)
-    changed = {key: sensor_cfg.pop(key) for key in NUMBERS if key in sensor_cfg}
+    changed = {key: (tuple(int(v) for v in sensor_cfg.pop(key)) if key == "image_size" else float(sensor_cfg.pop(key)))
+               for key in NUMBERS if key in sensor_cfg}
     if changed:
         try:
             profile = dataclasses.replace(profile, **changed)
