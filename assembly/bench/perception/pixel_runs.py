@@ -19,6 +19,7 @@ from assembly.run.session import Run, world_of
 from drivers.cell import Cell
 from drivers.cell_file import resolve_cell_path
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
+from drivers.sim.scenes.scene_file import scene_file_of
 from perception.sensor_profile import DEFAULT_PROFILE, NUMBERS, load_profile
 from perception.state import FINGERS, TactileState
 
@@ -48,8 +49,11 @@ def first_element_only(tree: Path, out_dir: Path) -> Path:
     doc = yaml.safe_load(tree.read_text())
     design = (tree.parent / doc["design"]).resolve()
     first = DesignModel.load(design).build_order()[0]
-    doc["design"] = str(design)
-    for rel in doc.get("include") or []:  # copied beside the copy: a tree includes from its own folder only
+    # copied beside the copy: a tree reads its includes and its design (with the design's scene file) from its
+    # own folder only
+    scene = scene_file_of(design)
+    scene_rel = Path(doc["design"]).with_name(scene.name)
+    for rel in [*(doc.get("include") or []), doc["design"], *([scene_rel] if scene.exists() else [])]:
         (out_dir / rel).parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(tree.parent / rel, out_dir / rel)
 

@@ -41,7 +41,8 @@ _PROFILE_VALUES = {name: ({"type": "array", "items": number(1, 4096), "minItems"
                           if name == "image_size" else number(0.0, 1e6)) for name in NUMBERS}
 SENSOR_VALUES = {**_PROFILE_VALUES, "noise_px": {"anyOf": [number(0.0, 100.0), {"type": "null"}]},
                  "normal_mode": {"enum": ["xy_norm", "marker_size"]}, "pipeline_errors": {"type": "boolean"},
-                 "profile": {"type": "string", "minLength": 1}}
+                 "profile": {"type": "string", "minLength": 1},
+                 "appearance": {}}  # a mapping of look fields or `random`: checked by drivers/sim/cell.py
 WORLD_VALUES = {"ground_stiffness": number(0.0, 1e8, above=True), "contact_stiffness": number(0.0, 1e8, above=True),
                 "friction": number(0.0, 10.0), "view_half": number(0.0, 0.1, above=True),
                 "finger_reach": number(0.0, 0.2, above=True), "force_noise": number(0.0, 1.0)}
