@@ -20,7 +20,9 @@ session score about as the paper's (f1 0.96-0.98) while another session costs ev
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from typing import ClassVar
 
 import numpy as np
 
@@ -176,6 +178,22 @@ class StirScene(PickedScene):
     def labels(self) -> dict:
         """The substance the stick is dipped in ('none' in the air)."""
         return {"substance": self.bowl_under(self.tip()) if self._depth > 0.0 else "none"}
+
+    # how many dips the task needs at least, and how far the stick may turn in the fingers
+    TOLERANCES: ClassVar[dict[str, float]] = {"min_dips": 1.0, "max_turn_deg": 10.0}
+
+    def shortfalls(self, tolerances: Mapping[str, float]) -> list[str]:
+        """Never picked up, dipped fewer times than `min_dips`, or turned in the fingers further
+        than `max_turn_deg` (the grip lost its hold on the stick)."""
+        if not self.held:
+            return ["the stick was never picked up"]
+        out = []
+        if len(self.stirred) < tolerances["min_dips"]:
+            out.append(f"the stick dipped {len(self.stirred)} times into a bowl < {tolerances['min_dips']:g}")
+        turned = float(np.degrees(abs(self.angle)))
+        if turned > tolerances["max_turn_deg"]:
+            out.append(f"the stick turned {turned:.1f} deg in the fingers > {tolerances['max_turn_deg']:g} deg")
+        return out
 
     def metrics(self) -> dict:
         return {"dips": len(self.stirred), "bowls stirred": ", ".join(dict.fromkeys(self.stirred)) or "none",
