@@ -61,6 +61,12 @@ FAILED_TASKS = {
         "stir", ["{skill: gentle_grasp, name: grasp, params: {squeeze: 0.008, force: 60.0}}",
                  f"{{skill: move_to, name: over, params: {{pose: {OVER_BOWL}, speed: 0.2}}}}"], "",
         "the stick dipped 0 times into a bowl < 1"),
+    "stir: the stick dips but never stirs": (
+        "stir", ["{skill: gentle_grasp, name: grasp, params: {squeeze: 0.008, force: 60.0}}",
+                 f"{{skill: move_to, name: over, params: {{pose: {OVER_BOWL}, speed: 0.2}}}}",
+                 "{skill: descend_until_contact, name: surface, params: {speed: 0.02, eps: 0.3}}",
+                 "{skill: move_to, name: dip, params: {offset: [0.0, 0.0, -0.02], speed: 0.02}}"], "",
+        "the stick stirred a substance for 0.0 s < 1 s"),
 }
 
 

@@ -385,12 +385,20 @@ class ProgramSkill(Skill):
     # Steps usable with `yield from` ---------------------------------------------------------
     def move(self, pose, speed: float, timeout: float = 60.0,
              watch: Callable[[], str | None] | None = None):
-        """Linear move to `pose`; yields until arrival and returns None, or why it stopped short.
+        """Linear move to `pose`; yields until arrival and returns None, or why it stopped short
+        (a target the safety layer pulls into the workspace box: at once, naming the requested and
+        the reachable position, the arm stopped).
 
         Needs /robot/fault and /robot/moving in READS. `watch`, called once per tick while the
         arm moves, may return a reason to stop the arm and abort (e.g. slip in the grasp)."""
         arm = self.cell.arm
         arm.move_linear(np.asarray(pose, dtype=float), speed)
+        clamped = arm.clamped_target
+        if clamped is not None:  # the safety layer pulled the target into the box: not where asked
+            arm.stop()
+            requested, reachable = (np.round(p, 3).tolist() for p in clamped)
+            return (f"the requested position {requested} is outside the cell's workspace; the nearest "
+                    f"reachable is {reachable} (the arm was not moved there)")
         fault = self.arm_fault
         return (yield from self._until_still(
             arm.stop, lambda: fault() and f"arm fault during move: {fault()}", self.arm_moving,
