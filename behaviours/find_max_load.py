@@ -99,6 +99,7 @@ class FindMaxLoad(ProgramSkill):
     }
     READS = (keys.ELEMENT, keys.PLATES, keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT,
              keys.ROBOT_MOVING, keys.ROBOT_WRENCH, keys.GRIPPER_WIDTH, keys.GRIPPER_OBJECT, keys.GRIPPER_FAULT, keys.GRIPPER_MOVING)
+    NEEDS = ("plates",)
     WRITES = (keys.LOAD_PROFILE, keys.LOAD_SCAN, keys.BEST_POSE, keys.MEASURED_LOAD)
     _range: tuple[float, float] = (0.0, 1.0)  # the scan's part of the plate (fractions of its span), set by `scan`
     _span: float = 1.0  # m, the plate's span, set by `scan`

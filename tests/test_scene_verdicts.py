@@ -53,7 +53,7 @@ FAILED_TASKS = {
     "inhand: the turn falls short of the tree's target": (
         "inhand", ["{skill: gentle_grasp, name: grasp}", LIFT,
                    "{skill: in_hand_man, name: pivot, params: {target: 20.0}}"], "{turn_deg: 60.0}",
-        "deg in the hand, not 60 +- 5 deg"),
+        "deg in the hand, not 60 +- 10 deg"),
     "armrot: the stick is lifted but never balanced": (
         "armrot", ["{skill: gentle_grasp, name: grasp, params: {squeeze: 0.008, force: 60.0}}", LIFT], "",
         "deg from hanging > 10 deg"),
@@ -102,7 +102,7 @@ def test_a_hold_demo_judges_grip_and_slip_and_reports_the_tolerances(tmp_path):
 def test_a_resume_judges_the_element_a_person_marked_placed(tmp_path):
     """Before: the marked element kept the earlier session's 'placing' entry, was never judged,
     and the run said SUCCESS with '1 of 2' placed."""
-    first = run_tree(str(TREES / "assembly.yaml"), RunOptions(runs_dir=tmp_path, estop_at=109.6, quiet=True, plots=False))
+    first = run_tree(str(TREES / "assembly.yaml"), RunOptions(runs_dir=tmp_path, estop_at=120.1, quiet=True, plots=False))
     assert first.elements["E1"]["status"] == "placing"
     second = run_tree(str(TREES / "assembly.yaml"), RunOptions(runs_dir=tmp_path, resume="latest", marks={"E1": "placed"},
                                                                 quiet=True, plots=False))

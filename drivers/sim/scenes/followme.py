@@ -32,6 +32,7 @@ def min_jerk(s: float) -> float:
 
 @dataclass
 class FollowMeScene(Scene):
+    PROVIDES: ClassVar[frozenset[str] | None] = frozenset({"leader"})  # for skills' NEEDS
     arm: SceneArm
     gripper: SceneGripper
     axis: str = "x"

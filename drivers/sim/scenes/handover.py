@@ -23,6 +23,7 @@ GRAVITY = 9.81
 
 @dataclass
 class HandoverScene(Scene):
+    PROVIDES: ClassVar[frozenset[str] | None] = frozenset({"giver"})  # for skills' NEEDS
     arm: SceneArm
     gripper: SceneGripper
     mass: float = 0.3  # kg

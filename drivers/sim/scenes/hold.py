@@ -19,6 +19,7 @@ GRAVITY = 9.81
 
 @dataclass
 class HoldScene(Scene):
+    PROVIDES: ClassVar[frozenset[str] | None] = frozenset()  # for skills' NEEDS
     arm: SceneArm
     gripper: SceneGripper
     mass: float = 0.5  # kg, the empty box

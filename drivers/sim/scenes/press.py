@@ -51,6 +51,7 @@ def longest_within(values: list[float], target: float, band: float) -> int:
 
 @dataclass
 class PressScene(PickedScene):
+    PROVIDES: ClassVar[frozenset[str] | None] = frozenset({"surface"})  # for skills' NEEDS
     arm: SceneArm
     gripper: SceneGripper
     mass: float = 0.05  # kg

@@ -77,6 +77,7 @@ def session_batch(seed: int) -> tuple[dict[str, Substance], float, float]:
 
 @dataclass
 class StirScene(PickedScene):
+    PROVIDES: ClassVar[frozenset[str] | None] = frozenset({"surface", "bowls"})  # for skills' NEEDS
     arm: SceneArm
     gripper: SceneGripper
     bowls: dict = field(default_factory=lambda: dict(BOWLS))
