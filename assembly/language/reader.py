@@ -214,8 +214,8 @@ def load_tree(path: str | Path | None = None, text: str | None = None, name: str
         errors.extend(validator.errors)
         if dataflow and not validator.errors and root is not None:
             errors.extend(dataflow_errors(root, NODE_KINDS, PERCEPTION_KEYS))
-        if not validator.errors and root is not None:
-            errors.extend(scene_errors(root, scene))  # a skill whose world the scene lacks
+        if not validator.errors and root is not None and isinstance(doc.get("cell"), dict) and "scene" in doc["cell"]:
+            errors.extend(scene_errors(root, scene))  # a skill whose world the scene it names lacks
     if errors or root is None:  # no root without an error saying why
         raise TreeErrors(errors)
     tolerances = (doc.get("cell") or {}).get("tolerances") or Located()
