@@ -39,6 +39,7 @@ class ApproachPlate(ProgramSkill):
                           "m", min=0.0),
     }
     READS = (keys.ELEMENT, keys.PLATES, keys.ELEMENT_LENGTH, keys.ROBOT_POSE, keys.ROBOT_FAULT, keys.ROBOT_MOVING)
+    NEEDS = ("plates",)
     OPTIONAL_READS = (keys.ELEMENT_LENGTH,)  # measured by vis_scan; else the design length
 
     def setup(self, **kwargs) -> None:

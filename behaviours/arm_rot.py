@@ -29,6 +29,7 @@ class ArmRot(ProgramSkill):
         "max_time": time_limit(30.0),
     }
     READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT)
+    NEEDS = ("pivot",)
     WRITES = (keys.ARM_ROTATION,)
 
     def program(self):

@@ -29,6 +29,7 @@ class ClassifySubstance(UsesModel, ProgramSkill):
                           "the bowls)", 0.2, "px", min=0.0),
     }
     READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.STIR_TRIAL, keys.ROBOT_POSE, keys.ROBOT_FAULT, keys.ROBOT_MOVING)
+    NEEDS = ("bowls",)
     WRITES = (keys.SUBSTANCE, keys.STIR_TRIAL)
 
     def program(self):

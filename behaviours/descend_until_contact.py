@@ -46,6 +46,7 @@ class DescendUntilContact(ProgramSkill):
                            "(0: fingertips only)", 2.0, "N", min=0.0),
     }
     READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT, keys.ROBOT_WRENCH)
+    NEEDS = ("surface",)
     WRITES = (keys.CONTACT_POSE,)
 
     def program(self):

@@ -29,6 +29,7 @@ from __future__ import annotations
 import dataclasses
 import statistics
 from collections import deque
+from typing import NamedTuple
 
 import numpy as np
 from py_trees.common import Status
@@ -42,13 +43,29 @@ from behaviours.skill_kit.sensor import sensor_profile
 from behaviours.skill_kit.transit import plate_of
 from perception.state import TactileState
 
+FIRMER = "grasp firmer ('regrasp_force', 'max_regrasps')"
+
+
+class Refusal(NamedTuple):
+    """Why a scan's peak is not trusted (naming the rule) and what to change."""
+
+    what: str
+    fix: str
+
+    def __str__(self) -> str:
+        return f"{self.what}; {self.fix}"
+
 
 @register
 class FindMaxLoad(ProgramSkill):
     NAME = "find_max_load"
     SUMMARY = "scan along the plate measuring the load in the grip and stop at its maximum"
     PARAMS = {
-        "span": Param("vector", "part of the plate span to scan [from, to]", [0.1, 0.9], "fraction of span", length=2, min=0.0, max=1.0),
+        "span": Param("vector", "part of the plate span to scan [from, to], less where the element does not fit "
+                      "(its half width plus `end_clearance` from each support): the default scans as near each "
+                      "support as the element fits", [0.0, 1.0], "fraction of span", length=2, min=0.0, max=1.0),
+        "end_clearance": Param("float", "room left between the element and a plate's support at each end of the "
+                               "scan", 0.02, "m", min=0.0, max=0.5),
         "speed": Param("float", "sliding speed along the plate", 0.03, "m/s", min=0.001, max=0.2, device="arm_speed"),
         "lift": Param("float", "foot lift off the ground while sliding", 0.003, "m", min=0.0, max=0.05),
         "smoothing": Param("float", "moving-average window along the plate", 0.03, "m", min=0.0),
@@ -64,7 +81,8 @@ class FindMaxLoad(ProgramSkill):
         "flow_saturation": Param("float", "marker motion beyond which the slip it lights up grows no more "
                                  "(default: the sensor profile's slip_flow_saturation)", None, "px", min=0.0),
         "min_top_width": Param("float", "least width of the profile's top (within 3 % of the peak, or 5 sigma of the smoothed noise), as a share of "
-                               "the scan: a plate's load changes smoothly, so a sharper peak means the grip gave way",
+                               "the scan, for a peak at mid-span: a plate's load changes smoothly, so a sharper peak means "
+                               "the grip gave way; a peak nearer a support may be narrower in proportion, as a beam's is",
                                0.08, min=0.0, max=1.0),
         "min_clarity": Param("float", "least peak prominence, in units of the load noise, of a trusted maximum",
                              5.0, min=0.0),
@@ -81,13 +99,34 @@ class FindMaxLoad(ProgramSkill):
     }
     READS = (keys.ELEMENT, keys.PLATES, keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT,
              keys.ROBOT_MOVING, keys.ROBOT_WRENCH, keys.GRIPPER_WIDTH, keys.GRIPPER_OBJECT, keys.GRIPPER_FAULT, keys.GRIPPER_MOVING)
+    NEEDS = ("plates",)
     WRITES = (keys.LOAD_PROFILE, keys.LOAD_SCAN, keys.BEST_POSE, keys.MEASURED_LOAD)
+    _range: tuple[float, float] = (0.0, 1.0)  # the scan's part of the plate (fractions of its span), set by `scan`
+    _span: float = 1.0  # m, the plate's span, set by `scan`
 
     @classmethod
     def validate(cls, params) -> None:
         lo, hi = params["span"]
         if lo >= hi:
             raise ValueError(f"span must run forward, got [{lo}, {hi}]")
+
+    def scan_range(self, element: dict, span: float) -> tuple[float, float]:
+        """The part of the plate to scan, as fractions of its `span`: the `span` param less where the
+        element (its larger cross dimension) does not fit with `end_clearance` to spare from each
+        support; ValueError when nothing is left."""
+        margin = (max(element["size"][1], element["size"][2]) / 2.0 + self.p.end_clearance) / span
+        lo, hi = max(self.p.span[0], margin), min(self.p.span[1], 1.0 - margin)
+        if hi - lo < 0.05:
+            raise ValueError(f"the element fits only between {margin:.3f} and {1.0 - margin:.3f} of the {span:g} m "
+                             f"plate's span, which leaves no room to scan 'span' {list(self.p.span)} (with "
+                             f"end_clearance {self.p.end_clearance:g} m); widen 'span' or lower 'end_clearance'")
+        return lo, hi
+
+    def least_top_width(self, peak_along: float) -> float:
+        """The least top width (share of the scan) of a peak `peak_along` of the span (0..1):
+        `min_top_width` at mid-span, scaled by the peak's distance to the nearer support over half
+        the span (a beam's load top narrows towards a support)."""
+        return self.p.min_top_width * min(1.0, max(0.0, min(peak_along, 1.0 - peak_along)) / 0.5)
 
     def setup(self, **kwargs) -> None:
         super().setup(**kwargs)
@@ -112,8 +151,9 @@ class FindMaxLoad(ProgramSkill):
                 return self.fail(f"element {element['id']}: {problem}")
         else:
             tried = f" after {self.p.max_regrasps} firmer re-grasps" if self.p.max_regrasps else ""
-            return self.fail(f"element {element['id']}: {problem}{tried}; not placing it at a bad point "
-                             "(grasp firmer, or allow more 'max_regrasps')")
+            what, fix = problem if isinstance(problem, Refusal) else (problem, "")
+            return self.fail(f"element {element['id']}: {what}{tried}; not placing it at a bad point"
+                             + (f"; {fix}" if fix else ""))
         x0 = float(plate["origin"][0])
         best = np.r_[x0 + peak.position, self.pose()[1:]]
         fault = yield from self.move(best, self.p.speed)
@@ -133,7 +173,12 @@ class FindMaxLoad(ProgramSkill):
         """Lift the foot, slide in and scan the span; returns (peak, problem, whether a firmer
         grip could help), problem None for a trusted peak."""
         x0, span = float(plate["origin"][0]), float(plate["span"])
-        start, end = (x0 + f * span for f in self.p.span)
+        try:
+            self._range = self.scan_range(element, span)
+        except ValueError as exc:
+            return None, str(exc), False
+        self._span = span
+        start, end = (x0 + f * span for f in self._range)
         pose = self.pose()
         pose[2] += self.p.lift
         fault = yield from self.move(pose, 0.01)
@@ -224,28 +269,50 @@ class FindMaxLoad(ProgramSkill):
         return verdict[:3]
 
     def verdict(self, peak, stopped: str | None, slipping: bool):
-        """(peak, problem, whether a firmer grip could help, whether the grip slipped) of a located peak."""
-        sharp = not slipping and peak.clarity >= self.p.min_clarity and peak.top_share < self.p.min_top_width
+        """(peak, problem, whether a firmer grip could help, whether the grip slipped) of a located
+        peak; a problem names the rule that refused the peak and what to change."""
+        min_top = self.least_top_width(peak.sample_position / self._span)
+        sharp = not slipping and peak.clarity >= self.p.min_clarity and peak.top_share < min_top
         # A plate only pushes: a profile that falls below its start by more than its peak measured a
         # grip that shifted under the element's weight, not the plate.
         drifted = not slipping and float(peak.smoothed.min()) < -abs(peak.load)
         slipped = slipping or sharp or drifted
         if slipping:
-            return peak, stopped, True, slipped
+            return peak, Refusal(f"{stopped} (rule 'slip')", FIRMER), True, slipped
         if peak.load < self.p.min_load:
-            return peak, (f"no load found along the plate (peak {peak.load:.2f} px < {self.p.min_load} px): "
-                          "the element never reached it"), False, slipped
+            return peak, Refusal(f"no load found along the plate (rule 'min_load': peak {peak.load:.2f} px < "
+                                 f"{self.p.min_load} px): the element never reached it",
+                                 "check the element's length and the plate's height"), False, slipped
         if peak.clarity < self.p.min_clarity:
-            return peak, (f"no clear maximum along the plate (peak {peak.clarity:.1f} times the load noise "
-                          f"above the rest of the profile, needs {self.p.min_clarity:g})"), True, slipped
+            return (peak, *self._unclear(peak), slipped)
         if sharp:
-            return peak, (f"the element slipped in the grip at {peak.sample_position:.3f} m along the plate: the load "
-                          f"peaked there more sharply than a plate can (top {peak.top_share:.0%} of the scan wide, "
-                          f"min_top_width {self.p.min_top_width:.0%})"), True, slipped
+            return peak, Refusal(f"the element slipped in the grip at {peak.sample_position:.3f} m along the plate: the "
+                                 f"load peaked there more sharply than a plate can (rule 'min_top_width': top "
+                                 f"{peak.top_share:.0%} of the scan wide < {min_top:.1%} there)",
+                                 f"{FIRMER}, or, if this plate's maximum is that sharp, lower 'min_top_width'"), True, slipped
         if drifted:
-            return peak, (f"the element shifted in the grip during the scan: the load fell to "
-                          f"{peak.smoothed.min():.2f} px, below its start by more than its peak {peak.load:.2f} px"), True, slipped
+            return peak, Refusal(f"the element shifted in the grip during the scan: the load fell to "
+                                 f"{peak.smoothed.min():.2f} px, below its start by more than its peak {peak.load:.2f} px "
+                                 "(a plate only pushes)", FIRMER), True, slipped
         return peak, None, False, slipped
+
+    def _unclear(self, peak) -> tuple[Refusal, bool]:
+        """Why a peak is not clear enough (rule 'min_clarity') and what to change, and whether a
+        firmer grip could help: not when the load is still high at an end of the scan (the maximum
+        may lie beyond it, or the profile has no room to fall on that side)."""
+        low, high = (f * self._span for f in self._range)
+        smoothed = peak.smoothed
+        at_end = [where for where, value, x in (("start", smoothed[0], low), ("end", smoothed[-1], high))
+                  if value > 0.5 * float(smoothed.max()) and abs(peak.sample_position - x) <= 0.25 * (high - low)]
+        unclear = (f"no clear maximum along the plate (rule 'min_clarity': the peak at {peak.sample_position:.3f} m "
+                   f"stands {peak.clarity:.1f} times the load noise above the rest of the profile, needs "
+                   f"{self.p.min_clarity:g})")
+        if at_end:
+            return Refusal(f"{unclear}: the load is still high at the scan's {' and '.join(at_end)} "
+                           f"([{self._range[0]:.3f}, {self._range[1]:.3f}] of the span), so the maximum is near a "
+                           "support and the scan cannot see the load fall on that side",
+                           "scan closer to the plate's end ('span', 'end_clearance') or lower 'min_clarity'"), False
+        return Refusal(unclear, f"{FIRMER}, or lower 'min_clarity'"), True
 
     def regrasp(self, outside: np.ndarray, attempt: int):
         """Slide back out from under the plate, set the foot on the ground so it carries the

@@ -58,6 +58,7 @@ class Handover(ProgramSkill):
         "min_pull": Param("float", "give: least change of the hand force that counts as a pull", 0.1, "px", min=0.0),
     }
     READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.GRIPPER_WIDTH, keys.GRIPPER_OBJECT, keys.ROBOT_POSE)
+    NEEDS = ("giver",)
     RATE_TICKS = 3  # the growth of the pull is measured over this many ticks
 
     def _pressed(self, detector: ForceChangeDetector) -> bool:

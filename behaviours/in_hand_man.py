@@ -29,6 +29,7 @@ class InHandMan(ProgramSkill):
         "max_time": time_limit(20.0),
     }
     READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.GRIPPER_WIDTH)
+    NEEDS = ("pivot",)
     WRITES = (keys.OBJECT_ANGLE,)
 
     def program(self):

@@ -43,6 +43,7 @@ class InHandRot(ProgramSkill):
         "force": Param("float", "gripper force when closing again", 40.0, "N", min=0.0, device="gripper_force"),
     }
     READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.GRIPPER_WIDTH, keys.GRIPPER_FAULT, keys.GRIPPER_MOVING)
+    NEEDS = ("pivot",)
     WRITES = (keys.OBJECT_ANGLE,)
 
     def program(self):

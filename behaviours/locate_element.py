@@ -26,6 +26,7 @@ class LocateElement(ProgramSkill):
     }
     READS = (keys.ELEMENT, keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT, keys.ROBOT_MOVING,
              keys.GRIPPER_FAULT, keys.GRIPPER_MOVING)
+    NEEDS = ("elements",)
     WRITES = (keys.ELEMENT_POSE,)
 
     def program(self):

@@ -31,6 +31,7 @@ class PlaceElement(ProgramSkill):
     }
     READS = (keys.ELEMENT, keys.FV_LEFT, keys.FV_RIGHT, keys.MEASURED_LOAD, keys.ELEMENT_LENGTH,
              keys.ROBOT_POSE, keys.ROBOT_FAULT, keys.ROBOT_MOVING, keys.GRIPPER_WIDTH, keys.GRIPPER_FAULT)
+    NEEDS = ("plates",)
     OPTIONAL_READS = (keys.ELEMENT_LENGTH,)  # measured by vis_scan; else the design length
     WRITES = (keys.ASBUILT,)
 

@@ -46,6 +46,7 @@ class PressWithForce(UsesModel, ProgramSkill):
         "max_time": time_limit(30.0, "give up when the force has not settled within this time"),
     }
     READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT)
+    NEEDS = ("surface",)
     WRITES = (keys.PRESS_FORCE,)
 
     def program(self):

@@ -23,6 +23,7 @@ class RotateElement(ProgramSkill):
     }
     READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.ELEMENT_LENGTH, keys.ROBOT_POSE, keys.ROBOT_FAULT,
              keys.ROBOT_MOVING)
+    NEEDS = ("elements",)
     OPTIONAL_READS = (keys.ELEMENT_LENGTH,)  # measured by vis_scan; unknown: no ground check
 
     def program(self):

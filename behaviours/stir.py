@@ -23,6 +23,7 @@ class Stir(ProgramSkill):
         "duration": Param("float", "how long to stir", 4.0, "s", min=0.5, max=60.0),
     }
     READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.STIR_TRIAL, keys.ROBOT_POSE, keys.ROBOT_FAULT, keys.ROBOT_MOVING)
+    NEEDS = ("bowls",)
     WRITES = (keys.STIR_TRIAL,)
 
     def program(self):

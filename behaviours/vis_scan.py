@@ -26,6 +26,7 @@ class VisScan(ProgramSkill):
                                  min=1),
     }
     READS = (keys.ELEMENT, keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT, keys.ROBOT_MOVING)
+    NEEDS = ("elements",)
     WRITES = (keys.ELEMENT_LENGTH, keys.ELEMENT_POSE)
 
     def _area(self) -> float:

@@ -131,6 +131,9 @@ class SafeArm(Guard):
         self.clock = clock
         self._last_kick = clock.now()
         self.clamped = 0  # count of targets pulled back into the workspace (for reports)
+        # (requested, reachable) position of the last move_linear target pulled into the box, or None:
+        # the skill that asked for it learns it did not get where it asked (skill_kit.base.move)
+        self.clamped_target: tuple[np.ndarray, np.ndarray] | None = None
         self._twist: np.ndarray | None = None  # the twist forwarded last, while it is held
         self.held_at: str | None = None  # the box face that stopped the held twist, until the next command
         self._watchdog: threading.Thread | None = None
@@ -159,6 +162,7 @@ class SafeArm(Guard):
     # --- guarded commands -------------------------------------------------------------------
     def move_linear(self, pose: np.ndarray, speed: float) -> None:
         with self._lock:
+            self.clamped_target = None
             if self._refuse("move_linear"):
                 return
             checked = self._gate("move_linear", lambda: (finite_pose("pose", pose), positive_number("speed", speed)))
@@ -174,6 +178,7 @@ class SafeArm(Guard):
                               + (f" or the arm's reach {self.limits.reach:g} m" if self.limits.reach else ""))
                     return
                 self.clamped += 1
+                self.clamped_target = (goal[:3].copy(), clipped.copy())
                 log.warning("target %s outside the workspace, clamped to %s", goal[:3], clipped)
             goal[:3] = clipped
             self._twist, self.held_at = None, None

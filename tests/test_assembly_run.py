@@ -89,7 +89,7 @@ def test_estop_halts_then_resume_skips_placed_elements(tmp_path):
 
 
 def test_a_resume_never_picks_again_an_element_left_being_released(tmp_path, capsys):
-    first = run_tree(ASSEMBLY, RunOptions(runs_dir=tmp_path, estop_at=114.7, quiet=True, plots=False))
+    first = run_tree(ASSEMBLY, RunOptions(runs_dir=tmp_path, estop_at=124.5, quiet=True, plots=False))
     assert first.status == "ESTOP" and first.where.endswith("/prop/place")
     assert first.elements["E1"]["status"] == "placing"
     assert main(["run", ASSEMBLY, "--runs-dir", str(tmp_path), "--resume"]) == 2
@@ -185,13 +185,15 @@ def test_bad_cell_file_names_file_line_and_field(tmp_path, capsys):
     assert f"{cell}:2: safety:" in err and "max_sped" in err and "Traceback" not in err
 
 
-def test_safety_layer_clamps_a_target_outside_the_workspace():
+def test_safety_layer_clamps_a_target_outside_the_workspace_and_the_move_fails():
     doc = load_tree(text="version: 1\nname: t\nroot: {skill: move_to, name: far, params: {pose: [2.0, 0, 0.5, 3.14159, 0, 0]}}\n",
                     name="far.yaml")
     cell = load_cell("sim", 30, "assembly", {})
     runner = Runner(build(doc), cell, max_time=30)
     runner.setup()
     result = runner.run()
-    assert result.status == "SUCCESS"
-    assert cell.arm.pose()[0] == pytest.approx(0.9) and cell.arm.clamped == 1
+    assert result.status == "FAILURE"  # a clamped move is not where the tree asked: the skill fails
+    assert "the requested position [2.0, 0.0, 0.5] is outside the cell's workspace; the nearest reachable is " \
+           "[0.9, 0.0, 0.5]" in result.message
+    assert cell.arm.clamped == 1 and cell.arm.pose()[0] < 0.9
     assert np.all(cell.arm.pose()[:3] <= cell.arm.limits.workspace_max)

@@ -50,7 +50,7 @@ def test_show_prints_kinds_and_params(capsys):
     assert main(["show", str(TREES / "assembly.yaml")]) == 0
     out = capsys.readouterr().out
     assert "main [selector, memory=false]" in out
-    assert "find_load [skill find_max_load] (span=[0.1, 0.9]" in out
+    assert "find_load [skill find_max_load] (span=[0.0, 1.0]" in out
 
 
 def test_show_with_a_missing_run_dir_is_a_clear_error(tmp_path, capsys):

@@ -78,9 +78,9 @@ def _start(run_dir: Path) -> int:
 
 @pytest.fixture(scope="module")
 def assembly(tmp_path_factory) -> tuple[Path, dict, dict, dict]:
-    """The simulated assembly cut short after placing E1 (120 s of cell time: E1 is placed at about 119 s), exported by the CLI:
+    """The simulated assembly cut short after placing E1 (127 s of cell time: E1 is placed at about 125.6 s), exported by the CLI:
     (run directory, summary, topic -> schema, topic -> messages)."""
-    run_dir = _run("assembly.yaml", tmp_path_factory.mktemp("runs"), max_time=120.0)
+    run_dir = _run("assembly.yaml", tmp_path_factory.mktemp("runs"), max_time=127.0)
     assert main(["export", str(run_dir)]) == 0
     return (run_dir, json.loads((run_dir / "summary.json").read_text()), *_read(run_dir / "recording.mcap"))
 

@@ -237,9 +237,9 @@ def kill_then_resume(at: float, runs_dir: Path, capsys) -> dict:
 
 
 # Killed before E1's release, while it is being released (its place node starts announcing the
-# release at 114.03 s of cell time: a person must check it), and after it stands, with E2 under way.
+# release at 123.90 s of cell time: a person must check it), and after it stands, with E2 under way.
 @pytest.mark.slow
-@pytest.mark.parametrize("at, releasing", [(100.0, False), (114.4, True), (150.0, False)])
+@pytest.mark.parametrize("at, releasing", [(100.0, False), (124.3, True), (150.0, False)])
 def test_kill_9_at_any_moment_never_places_an_element_twice(tmp_path, capsys, at, releasing):
     outcome = kill_then_resume(at, tmp_path, capsys)
     assert outcome["released"] == {"E1": 1, "E2": 1}, outcome

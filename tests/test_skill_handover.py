@@ -152,9 +152,11 @@ def test_give_fails_when_the_object_slips_out_under_weight():
     assert "slipped out while waiting" in h.feedback("s") and not h.gripper.commands_named("move")
 
 
+# The test builds the hold scene's cell itself: a world with no person to take the box, on purpose
+# (the tree names no scene, as a tree whose skills the scene cannot host is refused).
 GIVE_IN_HOLD_SCENE = """version: 1
 name: t
-cell: {tick_hz: 30, scene: hold}
+cell: {tick_hz: 30}
 root:
   sequence: s
   memory: true

@@ -31,9 +31,9 @@ def _object_track(tmp_path: Path, cell: str) -> Path:
 def test_a_successful_run_reports_the_tolerances_it_was_judged_by(tmp_path):
     summary = run_tree(str(TREES / "object_track.yaml"), RunOptions(runs_dir=tmp_path, quiet=True, plots=False))
     assert summary.status == "SUCCESS"
-    assert summary.truth == Verdict({"max_final_error_mm": 20.0}, [])
+    assert summary.truth == Verdict({"max_final_error_mm": 20.0, "max_rms_error_mm": 25.0}, [])
     written = json.loads((Path(summary.run_dir) / "summary.json").read_text())
-    assert written["truth"]["tolerances"] == {"max_final_error_mm": 20.0}
+    assert written["truth"]["tolerances"] == {"max_final_error_mm": 20.0, "max_rms_error_mm": 25.0}
 
 
 def test_success_that_the_truth_denies_is_task_failed_with_exit_code_5(tmp_path, capsys):
@@ -69,7 +69,7 @@ root:
 @pytest.mark.parametrize("setting, message", [
     ("{max_regret: -1}", "track.yaml:5: cell.tolerances.max_regret: must be at least 0, got -1"),
     ("{max_regret: 0.1}", ("track.yaml:5: cell.tolerances.max_regret: scene 'followme' has no tolerance "
-                           "'max_regret' (scene 'followme' has: max_final_error_mm)")),
+                           "'max_regret' (scene 'followme' has: max_final_error_mm, max_rms_error_mm)")),
     ("{max_final_eror_mm: 3}", "did you mean 'max_final_error_mm'?"),
 ])
 def test_bad_tolerances_are_refused_with_file_line_and_field(tmp_path, capsys, setting, message):

@@ -92,6 +92,30 @@ def _tolerances(build) -> dict[str, float]:
     return dict(getattr(scene, "TOLERANCES", {}) or {})
 
 
+def _targets(build) -> dict[str, str]:
+    """The targets of the verdict only a tree can set (name -> what it is), for the scene a builder returns."""
+    try:
+        scene = typing.get_type_hints(build).get("return")
+    except (NameError, TypeError):
+        return {}
+    return dict(getattr(scene, "TARGETS", {}) or {})
+
+
+def _provides(build) -> list[str] | None:
+    """What the scene a builder returns has for skills (None: not declared)."""
+    from assembly.language.affordances import provides
+
+    has = provides(build)
+    return None if has is None else sorted(has)
+
+
+def _skills(build) -> list[str]:
+    """The skills the scene a builder returns can host."""
+    from assembly.language.affordances import provides, supported_skills
+
+    return supported_skills(provides(build))
+
+
 def _demo_trees() -> dict[str, list[str]]:
     """scene -> the shipped trees (trees/*.yaml) that ask for it."""
     out: dict[str, list[str]] = {}
@@ -115,7 +139,8 @@ def describe_scenes() -> dict[str, dict]:
     trees = _demo_trees()
     return {name: {"package": SCENE_PACKAGES.get(name, PROJECT),
                    "simulates": _first_sentence(sys.modules[build.__module__].__doc__),
-                   "params": _scene_params(build), "tolerances": _tolerances(build), "trees": trees.get(name, [])}
+                   "params": _scene_params(build), "tolerances": _tolerances(build),
+                   "targets": _targets(build), "provides": _provides(build), "skills": _skills(build), "trees": trees.get(name, [])}
             for name, build in sorted(SCENES.items())}
 
 
@@ -126,6 +151,11 @@ def scenes_table() -> str:
         lines.append(f"    params: {d['params'] or 'none'}")
         if d["tolerances"]:
             lines.append("    tolerances: " + ", ".join(f"{k} (default {v:g})" for k, v in d["tolerances"].items()))
+        if d["provides"] is not None:
+            lines.append(f"    has: {', '.join(d['provides']) or 'nothing skills need beyond its object'}")
+            lines.append(f"    skills: {', '.join(d['skills'])}")
+        if d["targets"]:
+            lines.append("    targets (set by the tree): " + ", ".join(f"{k} ({v})" for k, v in d["targets"].items()))
         lines.append(f"    demo trees: {', '.join(d['trees']) or 'none'}")
         lines.append("")
     return "\n".join(lines).rstrip() + "\n"

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from assembly.design.model import DesignModel
 from assembly.errors import TreeError, TreeErrors
+from assembly.language.affordances import scene_errors
 from assembly.language.dataflow import dataflow_errors
 from assembly.language.fields import CELL_FIELDS, TOP_FIELDS, Field, required
 from assembly.language.kinds import NODE_KINDS
@@ -189,6 +190,8 @@ def with_scene(doc: TreeDocument, scene: str) -> TreeDocument:
     if scene not in _scenes():
         raise TreeError(f"--scene {scene}: no simulated scene {scene!r}", doc.path,
                         hint=did_you_mean(scene, _scenes()) or f"known: {', '.join(sorted(_scenes()))}")
+    if errors := scene_errors(doc.root, scene):
+        raise TreeErrors(errors)
     return replace(doc, scene=scene)
 
 
@@ -258,6 +261,8 @@ def load_tree(path: str | Path | None = None, text: str | None = None, name: str
         errors.extend(validator.errors)
         if dataflow and not validator.errors and root is not None:
             errors.extend(dataflow_errors(root, NODE_KINDS, PERCEPTION_KEYS))
+        if not validator.errors and root is not None and isinstance(doc.get("cell"), dict) and "scene" in doc["cell"]:
+            errors.extend(scene_errors(root, scene))  # a skill whose world the scene it names lacks
     if errors or root is None:  # no root without an error saying why
         raise TreeErrors(errors)
     tolerances = (doc.get("cell") or {}).get("tolerances") or Located()

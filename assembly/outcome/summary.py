@@ -119,6 +119,7 @@ def format_summary(summary: Summary) -> str:
         lines.append(f"  stopped at: {summary.where}")
     truth = summary.truth
     lines += [f"  not done: {shortfall}" for shortfall in (truth.shortfalls if truth else [])]
+    lines += [f"  not judged: {note}" for note in (truth.unjudged if truth else [])]
     placed = [e for e in summary.elements.values() if e["status"] == "placed"]
     if summary.elements:
         lines.append(f"  elements placed: {len(placed)} of {len(summary.elements)}")

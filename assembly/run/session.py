@@ -78,6 +78,7 @@ class Run:
         self._parts: _Parts | None = None
         self._before: dict = {}  # the summary an earlier session of a resumed run wrote
         self._placed_before: list[str] = []
+        self._unstood: list[str] = []  # notes on elements placed before a resume the world could not stand
         self._cell_closed = False
         self._finished = False
         self._lock: RunLock | None = None  # the run directory's, held from its choice to `close()`
@@ -197,8 +198,7 @@ class Run:
         if cell.world is not None:
             self.tolerances = tolerances_for(self.doc, cell.world)
             if design is not None:  # on resume in simulation, what is placed already stands
-                for eid in self._placed_before:
-                    cell.world.stand(eid, np.array(design.graph.nodes[eid]["asbuilt_pose"], float))
+                self._unstood = _stand_placed(cell.world, design, self._placed_before)
         tree = build(self.doc)
         recorder = None  # the recording and its live view follow the run directory's event log
         if self.run_dir is not None and (o.record or o.live):
@@ -261,11 +261,14 @@ class Run:
         if not o.quiet:
             end_stderr_progress()
         kept = self._before.get("elements", {})
-        summary = summarize(result, cell, self.design, {e: kept[e] for e in self._placed_before if e in kept})
+        # Elements judged placed by an earlier session keep its figures; an element placed by a
+        # person's mark since is judged now, standing at its as-built pose in the world.
+        summary = summarize(result, cell, self.design, {e: kept[e] for e in self._placed_before
+                                                        if kept.get(e, {}).get("status") == "placed"})
         summary.run_dir = None if self.run_dir is None else str(self.run_dir)
         summary.substitutions = self.substituted
         if cell.world is not None:
-            summary.apply(judge(cell.world, self.tolerances))
+            summary.apply(judge(cell.world, self.tolerances, self._unstood))
         self._log_end(summary, result)  # first: the event log's end matters more than the files below
         if self.run_dir is not None:
             self._write(summary, result, self.run_dir)
@@ -427,6 +430,20 @@ def _resumed_bridge(run_dir: Path, doc: TreeDocument, marks: dict[str, str], box
             and _last_session_ended(run_dir / EVENTS_FILE) in DONE:
         return None
     return bridge
+
+
+def _stand_placed(world: World, design: DesignModel, placed: list[str]) -> list[str]:
+    """Stand each element placed before a resume at its as-built pose in the simulated world, so its
+    truth is judged with the rest; a note for each that has no pose to stand it at."""
+    notes = []
+    for eid in placed:
+        pose = design.graph.nodes[eid].get("asbuilt_pose")
+        if pose is None:
+            notes.append(f"{eid}: marked placed with no as-built pose, so the scene could not stand it and its "
+                         "placement was not judged")
+        else:
+            world.stand(eid, np.array(pose, float))
+    return notes
 
 
 DONE = ("SUCCESS", TASK_FAILED)  # a session that ended so ran its tree to the end: nothing is left to do

@@ -176,6 +176,18 @@ def require_tick_once(cls: type[Any], tick: Callable, tick_once: Callable) -> No
         raise TypeError(f"{cls.__name__} overrides tick(): it must override tick_once() the same way")
 
 
+# What a skill may need of the world (`Skill.NEEDS`) and a simulated scene may have (`Scene.PROVIDES`).
+WORLD_NEEDS = {
+    "surface": "a surface below the tool to touch (a table, the ground, a scale, a bowl's contents)",
+    "elements": "building elements lying ready to be picked",
+    "plates": "bendable plates to prop",
+    "giver": "a person who hands the object to the fingers and takes it back",
+    "leader": "a person who leads the object in the fingers along a path",
+    "pivot": "an object that can turn in the fingers under its own weight",
+    "bowls": "bowls of substances to stir",
+}
+
+
 class Skill(py_trees.behaviour.Behaviour):
     """A py_trees behaviour with declared parameters that acts on the cell.
 
@@ -190,6 +202,9 @@ class Skill(py_trees.behaviour.Behaviour):
     OPTIONAL_READS: ClassVar[tuple[str, ...]] = ()  # keys of READS read with a fallback: no writer needed
     WRITES: ClassVar[tuple[str, ...]] = ()
     RUNS_UNTIL_HALTED: ClassVar[bool] = False  # True: never ends by itself, its parent halts it
+    # What the world around the cell must have for the skill to work (WORLD_NEEDS names them); a
+    # simulated scene that declares what it has and lacks one of these is refused by validate.
+    NEEDS: ClassVar[tuple[str, ...]] = ()
 
     cell: SkillCell  # from `setup(cell=...)`: unset until then, and a skill ticks only once set up
 
@@ -401,12 +416,20 @@ class ProgramSkill(Skill):
     # Steps usable with `yield from` ---------------------------------------------------------
     def move(self, pose, speed: float, timeout: float = 60.0,
              watch: Callable[[], str | None] | None = None):
-        """Linear move to `pose`; yields until arrival and returns None, or why it stopped short.
+        """Linear move to `pose`; yields until arrival and returns None, or why it stopped short
+        (a target the safety layer pulls into the workspace box: at once, naming the requested and
+        the reachable position, the arm stopped).
 
         Needs /robot/fault and /robot/moving in READS. `watch`, called once per tick while the
         arm moves, may return a reason to stop the arm and abort (e.g. slip in the grasp)."""
         arm = self.cell.arm
         arm.move_linear(np.asarray(pose, dtype=float), speed)
+        clamped = arm.clamped_target
+        if clamped is not None:  # the safety layer pulled the target into the box: not where asked
+            arm.stop()
+            requested, reachable = (np.round(p, 3).tolist() for p in clamped)
+            return (f"the requested position {requested} is outside the cell's workspace; the nearest "
+                    f"reachable is {reachable} (the arm was not moved there)")
         fault = self.arm_fault
         return (yield from self._until_still(
             arm.stop, lambda: fault() and f"arm fault during move: {fault()}", self.arm_moving,

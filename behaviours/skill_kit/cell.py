@@ -24,6 +24,11 @@ class SkillArm(Protocol):
         """The workspace box's face (e.g. "z min 0.35 m") where the safety layer stopped the last
         twist from going on, or None: a skill that moves until something happens checks it."""
 
+    @property
+    def clamped_target(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(requested, reachable) position of the last `move_linear` target the safety layer pulled
+        into the workspace box, or None when it went where asked: a clamped move is a failure."""
+
 
 class SkillGripper(Protocol):
     @property

@@ -24,6 +24,7 @@ class TrackingSkill(ProgramSkill):
         "lost_area": Param("float", "object area below this share of the starting area means it is lost", 0.02, min=0.0, max=1.0),
     }
     READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT)
+    NEEDS = ("leader",)
 
     @classmethod
     def validate(cls, params) -> None:

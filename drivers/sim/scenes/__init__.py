@@ -12,7 +12,7 @@ from drivers.cell_file import CellFileError, check_values, number, section
 from drivers.protocols import Clock, PerceptionSource, SceneArm, SceneGripper, World
 from drivers.sim.models.fingervision_model import SensorModel
 from drivers.sim.models.skin import Skin
-from drivers.sim.scenes import assembly, followme, handover, hold, press, stick, stir
+from drivers.sim.scenes import assembly, followme, handover, handover_press, hold, press, stick, stir
 from fvfiles.errors import did_you_mean
 from perception.sensor_profile import DEFAULT_PROFILE, NUMBERS, SensorProfile, SensorProfileError, load_profile
 from perception.state import FINGERS
@@ -23,6 +23,7 @@ SCENES: dict[str, Callable[[SceneArm, SceneGripper, dict, dict, int], World]] = 
     "hold": hold.build,
     "followme": followme.build,
     "handover": handover.build,
+    "handover_press": handover_press.build,
     "inhand": stick.builder("inhand"),
     "inhand_light": stick.builder("inhand_light"),
     "armrot": stick.builder("armrot"),

@@ -182,6 +182,7 @@ class SceneConfig:
 
 @dataclass
 class AssemblyScene(Scene):
+    PROVIDES: ClassVar[frozenset[str] | None] = frozenset({"surface", "elements", "plates"})  # for skills' NEEDS
     arm: SceneArm
     gripper: SceneGripper
     elements: dict[str, Element]

@@ -12,9 +12,14 @@ class Scene:
     `contacts` (and override the others where they know more)."""
 
     TOLERANCES: ClassVar[Mapping[str, float]] = {}  # name -> default limit, for `shortfalls`
+    TARGETS: ClassVar[Mapping[str, str]] = {}  # name -> what it is: limits with no default, set by a tree or not judged
+    # What the scene has for skills to work on (names of `behaviours.skill_kit.base.WORLD_NEEDS`): a
+    # skill whose NEEDS it lacks is refused by validate; None: not declared, not checked (plug-ins).
+    PROVIDES: ClassVar[frozenset[str] | None] = None
 
     def shortfalls(self, tolerances: Mapping[str, float]) -> list[str]:
-        """What the scene's truth shows was not done (an object dropped, ...); nothing by default."""
+        """What the scene's truth shows was not done (an object dropped, ...) within `tolerances`
+        (the scene's TOLERANCES and the TARGETS the tree set); nothing by default."""
         return []
 
     def metrics(self) -> dict[str, Any]:

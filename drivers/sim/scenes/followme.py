@@ -49,6 +49,7 @@ def min_jerk(s: float) -> float:
 
 @dataclass
 class FollowMeScene(Scene):
+    PROVIDES: ClassVar[frozenset[str] | None] = frozenset({"leader"})  # for skills' NEEDS
     arm: SceneArm
     gripper: SceneGripper
     axis: str = "x"
@@ -165,14 +166,29 @@ class FollowMeScene(Scene):
         views = (pad_view(-1.0, self.area, (0.0, 0.0)), pad_view(1.0, self.area, (0.0, 0.0)))
         return pad_contacts((0.0, 0.0), np.zeros(3), 0.0, views)
 
-    TOLERANCES: ClassVar[dict[str, float]] = {"max_final_error_mm": 20.0}  # how far from the person's hand the tool may end
+    # how far from the person's hand the tool may end, and may be on average while led
+    TOLERANCES: ClassVar[dict[str, float]] = {"max_final_error_mm": 20.0, "max_rms_error_mm": 25.0}
 
     def shortfalls(self, tolerances: Mapping[str, float]) -> list[str]:
+        """Lost, never grasped, let go of before the person's lead was over, or tracked with more
+        error than `max_rms_error_mm` on average or `max_final_error_mm` at the end."""
         if self.lost:
             return ["the block was lost"]
-        final = self._errors[-1] * 1000 if self._errors else 0.0
-        limit = tolerances["max_final_error_mm"]
-        return [f"the tool ended {final:.1f} mm from the block's goal > {limit:g} mm"] if final > limit else []
+        if self._grasped_at is None:
+            return ["the block was never grasped, so the person never led it"]
+        out = []
+        led = self._t - self._grasped_at - self.start_delay
+        if led < self.move_time:
+            out.append(f"the run ended {max(led, 0.0):.1f} s into the person's {self.move_time:g} s lead")
+        if self._errors:
+            final = self._errors[-1] * 1000
+            rms = float(np.sqrt(np.mean(np.square(self._errors)))) * 1000
+            if final > tolerances["max_final_error_mm"]:
+                out.append(f"the tool ended {final:.1f} mm from the block's goal > {tolerances['max_final_error_mm']:g} mm")
+            if rms > tolerances["max_rms_error_mm"]:
+                out.append(f"the tool tracked the block with {rms:.1f} mm rms error > "
+                           f"{tolerances['max_rms_error_mm']:g} mm")
+        return out
 
     def metrics(self) -> dict:
         if not self._errors:

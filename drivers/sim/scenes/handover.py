@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
@@ -22,6 +23,7 @@ GRAVITY = 9.81
 
 @dataclass
 class HandoverScene(Scene):
+    PROVIDES: ClassVar[frozenset[str] | None] = frozenset({"giver"})  # for skills' NEEDS
     arm: SceneArm
     gripper: SceneGripper
     mass: float = 0.3  # kg
@@ -46,6 +48,7 @@ class HandoverScene(Scene):
         self._since = 0.0  # time the current phase started
         self._firm = 0.0  # how long the grip has been firm enough for the person
         self._load = np.zeros(3)
+        self._held_slid = 0.0  # m the bottle slid in the pads while the robot held it, at most
 
     def _enter(self, phase: str) -> None:
         self.phase, self._since = phase, self._t
@@ -73,6 +76,8 @@ class HandoverScene(Scene):
             lift = min(1.0, (self._t - self._since) / self.lift_ramp) * self.lift if self.phase == "taking" else 0.0
             self._load = tool_rotation(self.arm).T @ np.array([0.0, 0.0, lift - weight])
             self.grip.step(self._load[[0, 2]], 2 * squeeze, dt)
+            if self.phase == "robot":
+                self._held_slid = max(self._held_slid, float(np.hypot(*self.grip.slid)))
             if np.hypot(*self.grip.slid) > self.pad_reach:
                 self._enter("taken" if self.phase == "taking" else "dropped")
 
@@ -93,8 +98,23 @@ class HandoverScene(Scene):
         slip = slip_signal(self.grip.speed, self.area, dt)
         return pad_contacts((squeeze, squeeze), self._load, 0.0, views, slip)
 
+    # how far the bottle may slide in the pads while the robot holds it
+    TOLERANCES: ClassVar[dict[str, float]] = {"max_slip_mm": 5.0}
+
     def shortfalls(self, tolerances: Mapping[str, float]) -> list[str]:
-        return ["the bottle was dropped"] if self.phase == "dropped" else []
+        """Dropped, never taken from the person, still held when the person pulled it back, or slid
+        further than `max_slip_mm` while the robot held it."""
+        if self.phase == "dropped":
+            return ["the bottle was dropped"]
+        if self.phase in ("approach", "offer"):
+            return ["the robot never took the bottle: the person was still offering it"]
+        out = []
+        if self.phase == "taking":
+            out.append("the person was taking the bottle back but the robot had not let go")
+        if self._held_slid * 1000 > tolerances["max_slip_mm"]:
+            out.append(f"the bottle slid {self._held_slid * 1000:.1f} mm in the grip while the robot held it > "
+                       f"{tolerances['max_slip_mm']:g} mm")
+        return out
 
     def metrics(self) -> dict:
         return {"bottle": {"approach": "not yet offered", "offer": "still offered by the person",

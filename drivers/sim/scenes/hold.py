@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
@@ -30,6 +31,7 @@ GRAVITY = 9.81
 
 @dataclass
 class HoldScene(Scene):
+    PROVIDES: ClassVar[frozenset[str] | None] = frozenset()  # for skills' NEEDS
     arm: SceneArm
     gripper: SceneGripper
     mass: float = 0.5  # kg, the empty box
@@ -82,8 +84,24 @@ class HoldScene(Scene):
         gain = self.material.marker_gain if self.material is not None else 1.0
         return pad_contacts((squeeze, squeeze), self._load, 0.0, (view[-1.0], view[1.0]), slip, gain=gain)
 
+    # the grip the box must hang in at the end, and how far it may have slid in the pads
+    TOLERANCES: ClassVar[dict[str, float]] = {"min_grip_N": 1.0, "max_slip_mm": 5.0}
+
     def shortfalls(self, tolerances: Mapping[str, float]) -> list[str]:
-        return ["the box was dropped"] if self.dropped else []
+        """Dropped, never lifted off the stand, hanging in less grip than `min_grip_N` at the end, or
+        slid further than `max_slip_mm` in the pads."""
+        if self.dropped:
+            return ["the box was dropped"]
+        grip = self.gripper.squeeze_force()
+        if self._lifted_at is None:
+            return [f"the box was never lifted off its stand (grip {grip:.2f} N)"]
+        out = []
+        if grip < tolerances["min_grip_N"]:
+            out.append(f"the box ended in a grip of {grip:.2f} N < {tolerances['min_grip_N']:g} N")
+        slid = float(np.hypot(*self.grip.slid)) * 1000
+        if slid > tolerances["max_slip_mm"]:
+            out.append(f"the box slid {slid:.1f} mm in the grip > {tolerances['max_slip_mm']:g} mm")
+        return out
 
     def metrics(self) -> dict:
         return {"box slid (mm)": round(float(np.hypot(*self.grip.slid)) * 1000, 2),

@@ -17,7 +17,9 @@ object pressed, as the paper found for ForceLearn.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
@@ -45,8 +47,18 @@ def mindlin_shear(load: float, capacity: float) -> float:
     return float(np.sign(load) * 1.5 * capacity * (1.0 - (1.0 - ratio) ** (2.0 / 3.0)))
 
 
+def longest_within(values: list[float], target: float, band: float) -> int:
+    """The longest run of consecutive `values` within `band` of `target`."""
+    longest = run = 0
+    for value in values:
+        run = run + 1 if abs(value - target) <= band else 0
+        longest = max(longest, run)
+    return longest
+
+
 @dataclass
 class PressScene(PickedScene):
+    PROVIDES: ClassVar[frozenset[str] | None] = frozenset({"surface"})  # for skills' NEEDS
     arm: SceneArm
     gripper: SceneGripper
     mass: float = 0.05  # kg
@@ -70,6 +82,7 @@ class PressScene(PickedScene):
         self.released = False
         self.force = 0.0  # N the scale pushes the stick up with
         self._load = np.zeros(3)
+        self._pressed: list[float] = []  # N on the scale each tick the stick was held (for the verdict)
 
     def tip(self) -> np.ndarray:
         """Stick tip (base frame)."""
@@ -84,6 +97,7 @@ class PressScene(PickedScene):
             self.force, self._load, self.grip.speed = self.mass * GRAVITY, np.zeros(3), 0.0
             return
         self.force = max(0.0, self.contact_stiffness * (self._scale_z - self.tip()[2]))
+        self._pressed.append(self.force)
         self._load = tool_rotation(self.arm).T @ np.array([0.0, 0.0, self.force - self.mass * GRAVITY])
         self.grip.step(self._load[[0, 2]], 2 * squeeze, dt)
 
@@ -96,6 +110,29 @@ class PressScene(PickedScene):
         slip = slip_signal(self.grip.speed, self.area, self._dt)
         gain = self.material.marker_gain if self.material is not None else 1.0
         return pad_contacts((squeeze, squeeze), shown, 0.0, views, slip, gain=gain)
+
+    # how close to the tree's target the scale must read, for how long, and how far the stick may slide
+    TOLERANCES: ClassVar[dict[str, float]] = {"force_tolerance_N": 1.0, "min_hold_s": 0.25, "max_slip_mm": 5.0}
+    TARGETS: ClassVar[dict[str, str]] = {"press_force_N": "the force the scale must feel, N"}
+
+    def shortfalls(self, tolerances: Mapping[str, float]) -> list[str]:
+        """Never picked up, slid in the grip beyond `max_slip_mm`, or (with the tree's target
+        `press_force_N`) the scale never read the target within `force_tolerance_N` for `min_hold_s`."""
+        if not self.held:
+            return ["the stick was never picked up"]
+        out = []
+        slid = float(abs(self.grip.slid[1])) * 1000
+        if slid > tolerances["max_slip_mm"]:
+            out.append(f"the stick slid {slid:.1f} mm in the grip > {tolerances['max_slip_mm']:g} mm")
+        target = tolerances.get("press_force_N")
+        if target is not None:
+            band, need = tolerances["force_tolerance_N"], tolerances["min_hold_s"]
+            held = longest_within(self._pressed, target, band) * self._dt
+            if held < need:
+                peak = max(self._pressed, default=0.0)
+                out.append(f"the scale never read {target:g} N +- {band:g} N for {need:g} s (peak {peak:.2f} N, "
+                           f"longest within {held:.2f} s)")
+        return out
 
     def labels(self) -> dict:
         """What the scale says (the training label) and the true force, this tick."""

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -32,6 +33,7 @@ PRESETS = {
 
 @dataclass
 class StickScene(Scene):
+    PROVIDES: ClassVar[frozenset[str] | None] = frozenset({"pivot"})  # for skills' NEEDS
     arm: SceneArm
     gripper: SceneGripper
     mass: float = 0.2  # kg
@@ -97,19 +99,73 @@ class StickScene(Scene):
         return pad_contacts((squeeze, squeeze), load, self.gravity_torque(), views, slip)
 
     def shortfalls(self, tolerances: Mapping[str, float]) -> list[str]:
-        return ["the stick was dropped"] if self.dropped else []
+        """Dropped or never lifted off its stand; the task's own judgement is the subclasses'."""
+        if self.dropped:
+            return ["the stick was dropped"]
+        if not self.lifted:
+            return ["the stick was never lifted off its stand"]
+        return []
+
+    def turned(self) -> float:
+        """Degrees the stick turned in the hand since the grasp."""
+        return math.degrees(abs(self.angle - self._start_angle))
+
+    def from_hanging(self) -> float:
+        """Degrees between the stick and straight down."""
+        return math.degrees(math.acos(np.clip(-self.direction()[2], -1.0, 1.0)))
 
     def metrics(self) -> dict:
-        hanging = math.degrees(math.acos(np.clip(-self.direction()[2], -1.0, 1.0)))
-        return {"turned in the hand (deg)": round(math.degrees(abs(self.angle - self._start_angle)), 2),
-                "stick from hanging (deg)": round(hanging, 2),
+        return {"turned in the hand (deg)": round(self.turned(), 2),
+                "stick from hanging (deg)": round(self.from_hanging(), 2),
                 "gravity torque (N m)": round(self.gravity_torque(), 4),
                 "stick dropped": self.dropped}
 
 
+class TurnScene(StickScene):
+    """In-hand rotation: the task is turning the stick in the hand by the tree's target."""
+
+    TOLERANCES: ClassVar[dict[str, float]] = {"turn_tolerance_deg": 10.0}  # how far from the target the turn may end
+    TARGETS: ClassVar[dict[str, str]] = {"turn_deg": "the turn in the hand the task asks for, deg"}
+
+    def shortfalls(self, tolerances: Mapping[str, float]) -> list[str]:
+        """As the stick's, and a turn further than `turn_tolerance_deg` from the tree's `turn_deg`."""
+        out = super().shortfalls(tolerances)
+        target = tolerances.get("turn_deg")
+        if out or target is None:
+            return out
+        if abs(self.turned() - target) > tolerances["turn_tolerance_deg"]:
+            out.append(f"the stick turned {self.turned():.1f} deg in the hand, not {target:g} +- "
+                       f"{tolerances['turn_tolerance_deg']:g} deg")
+        return out
+
+
+class HangScene(StickScene):
+    """Arm rotation: the task is turning the wrist until the stick hangs straight down."""
+
+    TOLERANCES: ClassVar[dict[str, float]] = {"max_from_hanging_deg": 10.0}  # how far from straight down it may end
+
+    def shortfalls(self, tolerances: Mapping[str, float]) -> list[str]:
+        """As the stick's, and ending further than `max_from_hanging_deg` from hanging."""
+        out = super().shortfalls(tolerances)
+        if not out and self.from_hanging() > tolerances["max_from_hanging_deg"]:
+            out.append(f"the stick ended {self.from_hanging():.1f} deg from hanging > "
+                       f"{tolerances['max_from_hanging_deg']:g} deg")
+        return out
+
+
 def builder(preset: str) -> Callable[..., StickScene]:
-    """A scene builder for one of PRESETS; scene args `mass` and `com` override it."""
-    def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> StickScene:
-        spec = {**PRESETS[preset], **{k: args[k] for k in ("mass", "com") if k in args}}
-        return StickScene(arm, gripper, friction=world.get("friction", 0.8), **spec)
+    """A scene builder for one of PRESETS (`armrot`: the stick must end hanging; the others: it
+    must turn in the hand by the tree's `turn_deg`); scene args `mass` and `com` override it."""
+    if preset == "armrot":
+        def build_hang(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> HangScene:
+            return HangScene(arm, gripper, friction=world.get("friction", 0.8), **_spec(preset, args))
+        return build_hang
+
+    def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> TurnScene:
+        return TurnScene(arm, gripper, friction=world.get("friction", 0.8), **_spec(preset, args))
     return build
+
+
+def _spec(preset: str, args: dict) -> dict:
+    """The preset's mass and centre of mass, with the scene args' over them."""
+    return {**PRESETS[preset], **{k: args[k] for k in ("mass", "com") if k in args}}

@@ -20,7 +20,9 @@ session score about as the paper's (f1 0.96-0.98) while another session costs ev
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from typing import ClassVar
 
 import numpy as np
 
@@ -55,6 +57,7 @@ SUBSTANCES = {
 BOWLS = {"flour": (-0.15, 0.3), "sugar": (0.0, 0.3), "peas": (0.15, 0.3)}  # centre x, y (m)
 IMAGE_SIZE = (320, 240)  # px of the pad cameras
 STIR_SPEED = 0.03  # m/s at which texture reaches its full strength
+STIRRING = 0.003  # m/s of the dipped stick across the bowl that counts as stirring
 DIP_SPREAD = 0.4  # +- share by which a dip's packing and grain vary
 BATCH_SIGMA = 0.45  # log-normal sigma of a session's batch of each substance
 SKIN_DRIFT = 0.25  # +- share by which the gel's stiffness drifts between sessions
@@ -74,6 +77,7 @@ def session_batch(seed: int) -> tuple[dict[str, Substance], float, float]:
 
 @dataclass
 class StirScene(PickedScene):
+    PROVIDES: ClassVar[frozenset[str] | None] = frozenset({"surface", "bowls"})  # for skills' NEEDS
     arm: SceneArm
     gripper: SceneGripper
     bowls: dict = field(default_factory=lambda: dict(BOWLS))
@@ -110,6 +114,7 @@ class StirScene(PickedScene):
         self._torque = 0.0
         self._tilt = 0.0  # m the pressure centre moved along the stick
         self.stirred: list[str] = []
+        self._stir_time = 0.0  # s the stick moved through a substance (for the verdict)
 
     def bowl_under(self, p: np.ndarray) -> str | None:
         for name, (x, y) in self.bowls.items():
@@ -134,6 +139,8 @@ class StirScene(PickedScene):
             self.stirred.append(bowl)
         self._depth = depth
         force = self._substance_force(self.substances[bowl], depth, velocity, dt) if depth else np.zeros(3)
+        if depth and np.hypot(*velocity[:2]) > STIRRING:
+            self._stir_time += dt
         rot = tool_rotation(self.arm)
         self._load = rot.T @ force
         lever = self.length - depth / 2.0  # drag acts halfway down the dipped part
@@ -177,8 +184,24 @@ class StirScene(PickedScene):
         """The substance the stick is dipped in ('none' in the air)."""
         return {"substance": self.bowl_under(self.tip()) if self._depth > 0.0 else "none"}
 
+    # how many dips the task needs at least, and how long the stick must have moved through a substance
+    TOLERANCES: ClassVar[dict[str, float]] = {"min_dips": 1.0, "min_stir_s": 1.0}
+
+    def shortfalls(self, tolerances: Mapping[str, float]) -> list[str]:
+        """Never picked up, dipped fewer times than `min_dips`, or moved through a substance for
+        less than `min_stir_s` in all (dipped, but never stirred)."""
+        if not self.held:
+            return ["the stick was never picked up"]
+        out = []
+        if len(self.stirred) < tolerances["min_dips"]:
+            out.append(f"the stick dipped {len(self.stirred)} times into a bowl < {tolerances['min_dips']:g}")
+        if self._stir_time < tolerances["min_stir_s"]:
+            out.append(f"the stick stirred a substance for {self._stir_time:.1f} s < {tolerances['min_stir_s']:g} s")
+        return out
+
     def metrics(self) -> dict:
         return {"dips": len(self.stirred), "bowls stirred": ", ".join(dict.fromkeys(self.stirred)) or "none",
+                "stirred (s)": round(self._stir_time, 2),
                 "stick turned in the fingers (deg)": round(float(np.degrees(abs(self.angle))), 2)}
 
 
