@@ -263,6 +263,10 @@ def load_tree(path: str | Path | None = None, text: str | None = None, name: str
             errors.extend(dataflow_errors(root, NODE_KINDS, PERCEPTION_KEYS))
         if not validator.errors and root is not None and isinstance(doc.get("cell"), dict) and "scene" in doc["cell"]:
             errors.extend(scene_errors(root, scene))  # a skill whose world the scene it names lacks
+        if cell is not None and not validator.errors and root is not None:
+            from assembly.language.reach import reach_errors  # the cell's box: read only when a cell is named
+
+            errors.extend(reach_errors(root, cell))  # constant poses and offsets the cell's box cannot take
     if errors or root is None:  # no root without an error saying why
         raise TreeErrors(errors)
     tolerances = (doc.get("cell") or {}).get("tolerances") or Located()
