@@ -26,7 +26,7 @@ from behaviours.skill_kit.follow_me import TrackingSkill
 from behaviours.skill_kit.hand import hand_force
 from behaviours.skill_kit.registry import register
 from behaviours.skill_kit.sensor import sensor_profile
-from perception.fingervision import background_match_of
+from perception.state import background_match_of
 
 
 @register

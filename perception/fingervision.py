@@ -8,7 +8,6 @@ with no contact (marker map and background), or load a saved marker map.
 from __future__ import annotations
 
 import dataclasses
-import re
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -25,7 +24,7 @@ from perception.late_markers import LateMarkers, NewMarkers
 from perception.marker_tracking import make_tracker, neighbour_index
 from perception.proximity import ProximityVision
 from perception.slip import make_motion, object_slip
-from perception.state import FINGERS, MarkerField, ObjectInfo, TactileState
+from perception.state import FINGERS, OBJECT_UNRELIABLE, MarkerField, ObjectInfo, TactileState
 from perception.tracking_kernels import warm_up as warm_tracking_kernels
 from perception.wrench import warm_up as warm_wrench_kernel
 from perception.wrench import wrench
@@ -33,15 +32,6 @@ from perception.wrench import wrench
 # Share of the empty view the object colour model may take for the object before every state warns
 # that the object's figures are unreliable (pixel mode's default look: 0; a held object: ~0.2).
 MAX_BACKGROUND_MATCH = 0.01
-OBJECT_UNRELIABLE = "object colour model matches"  # how that warning starts (`background_match_of` reads it)
-
-
-def background_match_of(reason: str) -> float:
-    """The share of the empty view a state's `health_reason` says the object colour model matches
-    (0.0 when it does not warn): what a skill that follows the object by vision weighs against the
-    object's own area."""
-    found = re.search(OBJECT_UNRELIABLE + r" ([0-9.]+)%", reason)
-    return float(found.group(1)) / 100.0 if found else 0.0
 
 
 class NotCalibratedError(FvtreeError, RuntimeError):

@@ -7,6 +7,7 @@ object centroid normalised by the image size ((W + H) / 2), orientation in radia
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -105,3 +106,14 @@ class TactileState:
             finger=finger, stamp=stamp, markers=MarkerField() if markers is None else markers,
             force=_empty((3,)) if force is None else force, torque=_empty((3,)) if torque is None else torque,
             obj=ObjectInfo() if obj is None else obj, slip=slip, healthy=healthy, health_reason=health_reason)
+
+
+OBJECT_UNRELIABLE = "object colour model matches"  # how that warning starts (`background_match_of` reads it)
+
+
+def background_match_of(reason: str) -> float:
+    """The share of the empty view a state's `health_reason` says the object colour model matches
+    (0.0 when it does not warn): what a skill that follows the object by vision weighs against the
+    object's own area."""
+    found = re.search(OBJECT_UNRELIABLE + r" ([0-9.]+)%", reason)
+    return float(found.group(1)) / 100.0 if found else 0.0

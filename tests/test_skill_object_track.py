@@ -137,8 +137,7 @@ def test_object_track_fails_on_the_closing_axis_when_the_gel_does_not_show_the_p
 
 def test_object_track_fails_when_the_camera_cannot_tell_the_object_from_its_background():
     """The pipeline's warning (perception/fingervision.py) on a healthy state: vision has nothing to follow."""
-    from perception.fingervision import OBJECT_UNRELIABLE
-    from perception.state import TactileState
+    from perception.state import OBJECT_UNRELIABLE, TactileState
 
     def warned(state, share):
         return TactileState(state.finger, state.stamp, state.markers, state.force, state.torque, state.obj,
