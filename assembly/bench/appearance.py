@@ -21,8 +21,7 @@ import numpy as np
 from drivers.sim.models.appearance import DEFAULT_LOOK, Look, draw_look
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
 from drivers.sim.models.synthetic_camera import FingerRig, PixelFinger, drawn_jitter
-from perception.fingervision import background_match_of
-from perception.state import ObjectInfo
+from perception.state import ObjectInfo, background_match_of
 
 OBJECT = ObjectInfo(True, 0.3, np.array([0.05, -0.03]), 0.2)  # the held object as the scenes show it
 EMPTY_FRAMES, HELD_FRAMES = 30, 60  # frames with nothing in view, then with the object pressed
