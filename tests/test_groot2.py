@@ -134,7 +134,8 @@ def test_the_blackboards_decode_as_msgpack(assembly):
     assert tree_board["/task/element"]["id"] == Blackboard.storage["/task/element"]["id"]
     assert tree_board["/fv/left"]["finger"] == "left"
     assert boards["build"] == {"scan_step": 0.002, "descend_speed": 0.01, "grasp_force": 40.0,
-                                                      "grasp_squeeze": 0.005, "regrasps": 1}
+                               "grasp_squeeze": 0.005, "regrasps": 1, "end_clearance": 0.02, "min_clarity": 5.0,
+                               "min_top_width": 0.08, "scan_span": "0.0;1.0", "scan_speed": 0.03}
 
 
 def test_transitions_are_recorded_as_the_transition_log_has_them(assembly):

@@ -44,14 +44,15 @@ def figures(summary: dict) -> dict:
     and, for an assembly, the largest regret of its placements; why a run did not succeed."""
     out = {"verdict": summary.get("status"), "exit code": summary.get("exit"),
            "real-time factor": summary.get("real_time_factor")}
+    shortfalls = (summary.get("truth") or {}).get("shortfalls") or []
     if summary.get("status") != "SUCCESS":
-        out["why"] = " ".join(str(summary.get(k) or "") for k in ("where", "message")).strip()
+        out["why"] = " ".join(str(summary.get(k) or "") for k in ("where", "message")).strip() + \
+            "".join(f"; not done: {s}" for s in shortfalls)
     out.update(summary.get("metrics", {}))
     regrets = [e.get("regret") for e in summary.get("elements", {}).values() if e.get("regret") is not None]
     if regrets:
         out["largest regret (%)"] = round(100 * max(regrets), 4)
         out["elements placed"] = len(regrets)
-    shortfalls = (summary.get("truth") or {}).get("shortfalls") or []
     if shortfalls:
         out["not done"] = "; ".join(str(s) for s in shortfalls)
     return out
