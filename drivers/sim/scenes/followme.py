@@ -18,6 +18,7 @@ from typing import ClassVar
 import numpy as np
 
 from drivers.protocols import SceneArm, SceneGripper
+from drivers.sim.scenes import randomise
 from drivers.sim.scenes.base import Scene
 from drivers.sim.scenes.grip import Grip, empty_contacts, pad_contacts, pad_view, slip_signal, step_hand, tool_rotation
 
@@ -164,6 +165,7 @@ class FollowMeScene(Scene):
 
 def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> FollowMeScene:
     """Scene args: axis (x|y|z, tool axes), direction (pull|push), distance (m), move_time (s)."""
+    given = {"distance": args.get("distance", 0.12), "move_time": args.get("move_time", 4.0)}
     return FollowMeScene(arm, gripper, axis=args.get("axis", "x"), direction=args.get("direction", "pull"),
-                         distance=args.get("distance", 0.12), move_time=args.get("move_time", 4.0),
+                         **randomise.params(FollowMeScene, "followme", given, world, seed),
                          seed=seed, grip=Grip(friction=world.get("friction", 0.8)))

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drivers.protocols import SceneArm, SceneGripper
+from drivers.sim.scenes import randomise
 from drivers.sim.scenes.base import Scene
 from drivers.sim.scenes.grip import Grip, empty_contacts, pad_contacts, pad_view, slip_signal, step_hand, tool_rotation
 
@@ -80,5 +81,6 @@ class HoldScene(Scene):
 
 def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> HoldScene:
     """Scene args: mass (kg), extra_load (N)."""
-    return HoldScene(arm, gripper, mass=args.get("mass", 0.5), extra_load=args.get("extra_load", 25.0),
+    given = {"mass": args.get("mass", 0.5), "extra_load": args.get("extra_load", 25.0)}
+    return HoldScene(arm, gripper, **randomise.params(HoldScene, "hold", given, world, seed),
                      grip=Grip(friction=world.get("friction", 0.8)))

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drivers.protocols import SceneArm, SceneGripper
+from drivers.sim.scenes import randomise
 from drivers.sim.scenes.grip import (
     Grip,
     PickedScene,
@@ -104,7 +105,7 @@ class PressScene(PickedScene):
 
 def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> PressScene:
     """Scene args: mass (kg), contact_stiffness (N/m), scale_noise (N)."""
-    return PressScene(arm, gripper, mass=args.get("mass", 0.05),
-                      contact_stiffness=args.get("contact_stiffness", 4000.0),
-                      scale_noise=args.get("scale_noise", 0.1), seed=seed,
+    given = {"mass": args.get("mass", 0.05), "contact_stiffness": args.get("contact_stiffness", 4000.0),
+             "scale_noise": args.get("scale_noise", 0.1)}
+    return PressScene(arm, gripper, **randomise.params(PressScene, "press", given, world, seed), seed=seed,
                       grip=Grip(friction=world.get("friction", 0.8)))

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from drivers.protocols import SceneArm, SceneGripper
+from drivers.sim.scenes import randomise
 from drivers.sim.scenes.base import Scene
 from drivers.sim.scenes.grip import empty_contacts, pad_contacts, pad_view, slip_signal, step_hand, tool_rotation
 
@@ -111,5 +112,6 @@ def builder(preset: str) -> Callable[..., StickScene]:
     """A scene builder for one of PRESETS; scene args `mass` and `com` override it."""
     def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> StickScene:
         spec = {**PRESETS[preset], **{k: args[k] for k in ("mass", "com") if k in args}}
+        spec = randomise.params(StickScene, "stick", spec, world, seed)
         return StickScene(arm, gripper, friction=world.get("friction", 0.8), **spec)
     return build
