@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import json
 import statistics
+import subprocess
+import sys
 import tempfile
 from collections.abc import Callable, Iterable
 from concurrent.futures import ThreadPoolExecutor
@@ -23,7 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from assembly.bench.demos import MODES, demo_trees, run_demo, save
+from assembly.bench.demos import MODES, demo_trees, save
 from drivers.cell_file import CELLS_DIR
 from drivers.sim.scenes import randomise
 from fvfiles.yaml_source import load_file
@@ -146,13 +148,13 @@ def undone(key: Key, summary: dict, tree: Path) -> str:
     return ""
 
 
-def one_run(tree: Path, mode: str, seed: int, cell: Path, tmp: Path) -> dict:
-    """One randomised run: its verdict, key metric, why it failed and whether it lied."""
-    summary = run_demo(tree, mode, tmp / f"{tree.stem}-{mode}-{seed}", seed, cell=str(cell))
+def row_of(tree: Path, mode: str, seed: int, summary: dict) -> dict:
+    """One randomised run's row: its verdict, key metric, the draws that matter most, why it failed
+    and whether it lied."""
     key = KEYS.get(tree.name, Key("none", lambda s, t: None))
     status = str(summary.get("status"))
     drawn = {**randomise.draw("sensor", seed), **randomise.draw("force_sensor", seed)}
-    row = {"tree": tree.name, "mode": mode, "seed": seed, "status": status, "exit": summary.get("exit"),
+    row = {"tree": tree.name, "mode": mode, "seed": seed, "status": status,
            "metric": key.name, "value": key.read(summary, tree), "skin_lag_s": round(drawn["skin_lag_s"], 3),
            "force_offset_N": round(drawn["offset"], 2), "rest_jitter_px": round(drawn["rest_jitter_px"], 3),
            "gain": round(drawn["gain"], 3), "regret_pct": regrets(summary),
@@ -166,6 +168,22 @@ def one_run(tree: Path, mode: str, seed: int, cell: Path, tmp: Path) -> dict:
     return row
 
 
+def run_seeds(tree: Path, mode: str, seeds: list[int], cell: Path, tmp: Path) -> list[dict]:
+    """The rows of one tree's runs over `seeds` in one process (`assembly.bench.run_batch`); a seed
+    the process did not report is a run with status NO SUMMARY and the process's last words."""
+    runs_dir = tmp / f"{tree.stem}-{mode}"
+    command = [sys.executable, "-m", "assembly.bench.run_batch", str(tree), mode, str(cell), str(runs_dir),
+               *map(str, seeds)]
+    done = subprocess.run(command, check=False, capture_output=True, text=True)
+    summaries = {}
+    for line in done.stdout.splitlines():
+        if line.startswith("{"):
+            summary = json.loads(line)
+            summaries[summary["seed"]] = summary
+    lost = {"status": "NO SUMMARY", "message": done.stderr.strip()[-300:]}
+    return [row_of(tree, mode, seed, summaries.get(seed, lost)) for seed in seeds]
+
+
 def run(out: Path, quick: bool = False, seeds: int | None = None, modes: Iterable[str] | None = None,
         trees: Iterable[str] | None = None, jobs: int = 1) -> list[Path]:
     """Run the demo trees over `seeds` seeds (0..seeds-1) in `modes`, `jobs` runs at a time; write the
@@ -177,9 +195,10 @@ def run(out: Path, quick: bool = False, seeds: int | None = None, modes: Iterabl
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
         cell = randomised_cell(tmp)
-        cases = [(tree, mode, seed) for mode in modes for tree in paths for seed in range(count)]
+        cases = [(tree, mode) for mode in modes for tree in paths]
         with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
-            rows = list(pool.map(lambda case: one_run(*case, cell, tmp), cases))
+            batches = pool.map(lambda case: run_seeds(*case, list(range(count)), cell, tmp), cases)
+            rows = [row for batch in batches for row in batch]
     json_path = out / "robustness.json"
     json_path.write_text(json.dumps({"seeds": count, "modes": list(modes), "summary": table(rows), "runs": rows},
                                     indent=1) + "\n")

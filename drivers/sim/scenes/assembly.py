@@ -537,8 +537,10 @@ def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: i
     for spec in args.get("plates", []):
         beam = BeamPlate(span=spec["span"], **randomise.params(BeamPlate, "assembly.plate", loads.get(spec["id"], {}),
                                                                world, seed, spec["id"]))
-        shift = randomise.draw("assembly.support", seed, instance=spec["id"]) if randomise.enabled(world) else {}
-        origin = tuple(float(v) + shift.get(d, 0.0) for v, d in zip(spec["origin"], ("dx", "dy", "dz")))
+        origin = tuple(map(float, spec["origin"]))
+        if randomise.enabled(world):  # the supports where they were really built
+            shift = randomise.draw("assembly.support", seed, instance=spec["id"])
+            origin = tuple(v + shift[d] for v, d in zip(origin, ("dx", "dy", "dz")))
         plates[spec["id"]] = Plate(spec["id"], origin, spec.get("width", 0.3), beam)
     config = SceneConfig(seed=seed, **randomise.params(SceneConfig, "assembly", randomise.scene_config(world), world,
                                                        seed))

@@ -64,8 +64,8 @@ class Range:
         return min(ends), max(ends)
 
     def describe(self) -> str:
-        """`0.6-1 ` or `x0.7-1.3` with the unit, for `fvtree scenes`."""
-        span = f"x{self.low:g}-{self.high:g}" if self.relative else f"{self.low:g}-{self.high:g} {self.unit}".rstrip()
+        """`0.6 to 1` or `x0.7 to 1.3` with the unit, for `fvtree scenes`."""
+        span = f"x{self.low:g} to {self.high:g}" if self.relative else f"{self.low:g} to {self.high:g} {self.unit}".rstrip()
         return span + (" (log)" if self.log else "")
 
 
