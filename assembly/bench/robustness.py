@@ -197,13 +197,18 @@ def run(out: Path, quick: bool = False, seeds: int | None = None, modes: Iterabl
         cell = randomised_cell(tmp)
         cases = [(tree, mode) for mode in modes for tree in paths]
         with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
-            batches = pool.map(lambda case: run_seeds(*case, list(range(count)), cell, tmp), cases)
-            rows = [row for batch in batches for row in batch]
+            rows = []
+            with open(out / "robustness_runs.jsonl", "w") as partial:  # each tree's runs as they finish
+                for batch in pool.map(lambda case: run_seeds(*case, list(range(count)), cell, tmp), cases):
+                    rows += batch
+                    partial.writelines(json.dumps(row) + "\n" for row in batch)
+                    partial.flush()
     json_path = out / "robustness.json"
     json_path.write_text(json.dumps({"seeds": count, "modes": list(modes), "summary": table(rows), "runs": rows},
                                     indent=1) + "\n")
     md_path = out / "robustness.md"
     md_path.write_text(markdown(rows, count))
+    (out / "robustness_runs.jsonl").unlink()
     return [json_path, md_path, chart(rows, out / "robustness.png")]
 
 
