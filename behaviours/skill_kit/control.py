@@ -30,15 +30,22 @@ def speed_ctrl_gain(v_min: float, v_max: float, f_min: float, f_max: float) -> f
 
 
 class ForceChangeDetector:
-    """Fires when more than `min_markers` markers moved more than `threshold` from the
-    reference field taken over the first `reference_frames` frames (2023 gentle-grasp rule)."""
+    """Fires when more than `min_markers` markers moved more than the contact limit from the
+    reference field taken over the first `reference_frames` frames (2023 gentle-grasp rule). The
+    limit is `threshold`, raised to `noise_factor` times the rest noise measured on those frames
+    (per axis, of a frame against their mean, pooled over the markers): a noisier skin than the one
+    the threshold was set on (the calibration logs' rest jitter spans 0.046-0.32 px) would otherwise
+    light enough markers to fire without any touch; at 4 times the noise a marker's noise crosses
+    the limit on one frame in ~3000."""
 
-    def __init__(self, threshold: float, min_markers: int, reference_frames: int = 3):
+    def __init__(self, threshold: float, min_markers: int, reference_frames: int = 3, noise_factor: float = 4.0):
         self.threshold = threshold
         self.min_markers = min_markers
         self.reference_frames = reference_frames
+        self.noise_factor = noise_factor
         self._ref: list[np.ndarray] = []
         self._mean: np.ndarray | None = None  # the reference field, once its frames are in
+        self.limit = threshold  # px a marker must move to count, once the reference is in
         self.changed = 0
 
     def update(self, *marker_forces: np.ndarray) -> bool:
@@ -49,8 +56,19 @@ class ForceChangeDetector:
             return False
         if self._mean is None:  # averaged once: the reference frames do not change after
             self._mean = np.mean(self._ref, axis=0)
-        self.changed = int(np.count_nonzero(np.linalg.norm(f - self._mean, axis=1) > self.threshold))
+            self.limit = max(self.threshold, self.noise_factor * self.rest_noise())
+        self.changed = int(np.count_nonzero(np.linalg.norm(f - self._mean, axis=1) > self.limit))
         return self.changed > self.min_markers
+
+    def rest_noise(self) -> float:
+        """Per-axis standard deviation of one frame's marker forces against the reference mean,
+        estimated from the reference frames (0 with fewer than two of them)."""
+        frames = np.array(self._ref, dtype=float)
+        n = len(frames)
+        if n < 2:
+            return 0.0
+        spread = np.nanmean((frames - np.nanmean(frames, axis=0)) ** 2) * n / (n - 1)
+        return float(np.sqrt(spread * (1.0 + 1.0 / n))) if np.isfinite(spread) else 0.0
 
 
 class MovingAverage:
