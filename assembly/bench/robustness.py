@@ -92,6 +92,12 @@ def regrets(summary: dict) -> list[float]:
     return [100.0 * e["regret"] for e in summary.get("elements", {}).values() if e.get("regret") is not None]
 
 
+def _taken_back(summary: dict, tree: Path) -> float | None:
+    """1 when the person took the bottle back, 0 when not (dropped, still held)."""
+    bottle = summary.get("metrics", {}).get("bottle")
+    return None if bottle is None else float(bottle == "taken back by the person")
+
+
 def _bowls_right(summary: dict, tree: Path) -> float | None:
     """Share of the tree's bowls classified as expected (its `as_expected` checks that passed)."""
     log = Path(summary.get("run_dir") or "") / "transitions.jsonl"
@@ -115,7 +121,7 @@ KEYS: dict[str, Key] = {
                                  limit=1.0),
     "press_release.yaml": Key("stick slid in the grip (mm)", _metric("stick slid in the grip (mm)")),
     "hold.yaml": Key("box slid (mm)", _metric("box slid (mm)"), limit=20.0),
-    "handover.yaml": Key("grip force (N)", _metric("grip force (N)")),
+    "handover.yaml": Key("bottle taken back (1: yes)", _taken_back),
     "classify_substance.yaml": Key("bowls classified right (share)", _bowls_right),
 }
 # The tracking demos' undone-task check is the scene's own: the final error against max_final_error_mm.
