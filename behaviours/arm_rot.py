@@ -41,7 +41,8 @@ class ArmRot(ProgramSkill):
         start, t0 = self.pose(), self.now()
         if object_area(*self.tactile()) <= 0.0:
             return self.fail("nothing held between the fingers to balance")
-        quiet, still = 0, deque(maxlen=2 * self.p.settle)
+        quiet = 0
+        still: deque[float] = deque(maxlen=2 * self.p.settle)  # readings while standing still
         while True:
             torque = hand_torque(*self.tactile())
             pose = self.pose()

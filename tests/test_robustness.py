@@ -25,7 +25,7 @@ SHORT = {
     "classify_substance.yaml": "StirLearn's model was trained on the nominal sensor: a drawn rest jitter, gain "
                                "or skin lag moves its features enough to misread a bowl on most seeds",
     "press_with_force.yaml": "the force loop presses on while a lagging skin (up to 1 s) still shows less than "
-                             "the load: SUCCESS with the scale 2-16 N over the 5 N target",
+                             "the load: SUCCESS with the scale up to 13.6 N off the 5 N target",
 }
 
 

@@ -31,7 +31,7 @@ from drivers.sim.scenes import randomise
 from fvfiles.yaml_source import load_file
 
 SEEDS = 20
-QUICK = {"seeds": 1, "trees": ("hold.yaml",), "modes": ("signals",)}
+QUICK_SEEDS, QUICK_TREES, QUICK_MODES = 1, ("hold.yaml",), ("signals",)  # --quick: one honest run
 GOAL = 0.95  # share of seeds each demo should succeed in (issue 26)
 
 
@@ -160,15 +160,15 @@ def row_of(tree: Path, mode: str, seed: int, summary: dict) -> dict:
     key = KEYS.get(tree.name, Key("none", lambda s, t: None))
     status = str(summary.get("status"))
     drawn = {**randomise.draw("sensor", seed), **randomise.draw("force_sensor", seed)}
-    row = {"tree": tree.name, "mode": mode, "seed": seed, "status": status,
+    row: dict[str, Any] = {"tree": tree.name, "mode": mode, "seed": seed, "status": status,
            "metric": key.name, "value": key.read(summary, tree), "skin_lag_s": round(drawn["skin_lag_s"], 3),
            "force_offset_N": round(drawn["offset"], 2), "rest_jitter_px": round(drawn["rest_jitter_px"], 3),
            "gain": round(drawn["gain"], 3), "regret_pct": regrets(summary),
            "placement_error_mm": placement_errors(summary)}
     if status != "SUCCESS":
         shortfalls = (summary.get("truth") or {}).get("shortfalls") or []
-        row["why"] = " ".join(str(summary.get(k) or "") for k in ("where", "message")).strip()
-        row["why"] += "".join(f"; not done: {s}" for s in shortfalls)
+        why = " ".join(str(summary.get(k) or "") for k in ("where", "message")).strip()
+        row["why"] = why + "".join(f"; not done: {s}" for s in shortfalls)
     else:
         row["dishonest"] = undone(key, summary, tree)
     return row
@@ -194,10 +194,10 @@ def run(out: Path, quick: bool = False, seeds: int | None = None, modes: Iterabl
         trees: Iterable[str] | None = None, jobs: int = 1) -> list[Path]:
     """Run the demo trees over `seeds` seeds (0..seeds-1) in `modes`, `jobs` runs at a time; write the
     table (markdown and JSON) and the chart."""
-    chosen = list(trees or (QUICK["trees"] if quick else ()))
+    chosen = list(trees or (QUICK_TREES if quick else ()))
     paths = [p for p in demo_trees(False) if not chosen or p.name in chosen or p.stem in chosen]
-    modes = tuple(modes or (QUICK["modes"] if quick else MODES))
-    count = seeds or (QUICK["seeds"] if quick else SEEDS)
+    modes = tuple(modes or (QUICK_MODES if quick else MODES))
+    count = seeds or (QUICK_SEEDS if quick else SEEDS)
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
         cell = randomised_cell(tmp)
@@ -205,7 +205,10 @@ def run(out: Path, quick: bool = False, seeds: int | None = None, modes: Iterabl
         with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
             rows = []
             with open(out / "robustness_runs.jsonl", "w") as partial:  # each tree's runs as they finish
-                for batch in pool.map(lambda case: run_seeds(*case, list(range(count)), cell, tmp), cases):
+                def batch_of(case: tuple[Path, str]) -> list[dict]:
+                    return run_seeds(case[0], case[1], list(range(count)), cell, tmp)
+
+                for batch in pool.map(batch_of, cases):
                     rows += batch
                     partial.writelines(json.dumps(row) + "\n" for row in batch)
                     partial.flush()
