@@ -33,7 +33,7 @@ class ApproachPlate(ProgramSkill):
         "at": Param("float", "position along the span where the search starts", 0.1, "fraction of span", min=0.0, max=1.0),
         "side": Param("float", "distance of the TCP from the plate edge", 0.06, "m", min=0.0),
         "foot_clearance": Param("float", "height of the element's foot above the ground", 0.04, "m", min=0.0),
-        "speed": Param("float", "travel speed", 0.15, "m/s", min=0.001),
+        "speed": Param("float", "travel speed", 0.15, "m/s", min=0.001, device="arm_speed"),
         "margin": Param("float", "least gap between the carried element and anything it passes", 0.01, "m", min=0.0),
         "max_foot": Param("float", "highest the element's foot rises to pass over what lies on the table", 0.15,
                           "m", min=0.0),

@@ -27,7 +27,7 @@ class ArmRot(ProgramSkill):
     SUMMARY = "rotate the arm until the in-finger torque of the held object goes to zero"
     PARAMS = {
         "gain": Param("float", "wrist speed per unit of torque", 2.0, "rad/s/px", min=0.0),
-        "max_speed": Param("float", "wrist speed limit (the cell refuses turns over its max_angular_speed)", 0.6, "rad/s", min=0.01, max=1.0),
+        "max_speed": Param("float", "wrist speed limit (the cell refuses turns over its max_angular_speed)", 0.6, "rad/s", min=0.01, max=1.0, device="arm_angular_speed"),
         "eps": Param("float", "torque that counts as zero", 0.02, "px", min=0.0),
         "settle": Param("int", "ticks the torque must stay below eps", 5, min=1),
         "max_angle": Param("float", "give up after turning this far", 180.0, "deg", min=1.0, max=360.0),

@@ -12,7 +12,6 @@ from behaviours.skill_kit.model_files import UsesModel
 from behaviours.skill_kit.registry import register
 from behaviours.skill_kit.stirring import MOVEMENTS, next_trial, stir_steps
 from perception.learning.features import columns
-from perception.learning.stir import classify
 
 
 @register
@@ -33,6 +32,8 @@ class ClassifySubstance(UsesModel, ProgramSkill):
     WRITES = (keys.SUBSTANCE, keys.STIR_TRIAL)
 
     def program(self):
+        from perception.learning.stir import classify  # scikit-learn: loaded by a run, not by `fvtree validate`
+
         if self.model is None:
             return self.fail(self.model_error)
         model = self.model

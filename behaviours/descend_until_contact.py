@@ -32,7 +32,7 @@ class DescendUntilContact(ProgramSkill):
     NAME = "descend_until_contact"
     SUMMARY = "move down until the finger force changes by more than its measured noise allows"
     PARAMS = {
-        "speed": Param("float", "descent speed", 0.01, "m/s", min=1e-4, max=0.1),
+        "speed": Param("float", "descent speed", 0.01, "m/s", min=1e-4, max=0.1, device="arm_speed"),
         "eps": Param("float", "least fingertip force change that means contact", 0.5, "px", min=0.0),
         "max_travel": Param("float", "give up after descending this far (or at the workspace box's "
                             "floor, whichever comes first)", 0.15, "m", min=0.0, max=1.0),

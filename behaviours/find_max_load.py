@@ -49,7 +49,7 @@ class FindMaxLoad(ProgramSkill):
     SUMMARY = "scan along the plate measuring the load in the grip and stop at its maximum"
     PARAMS = {
         "span": Param("vector", "part of the plate span to scan [from, to]", [0.1, 0.9], "fraction of span", length=2, min=0.0, max=1.0),
-        "speed": Param("float", "sliding speed along the plate", 0.03, "m/s", min=0.001, max=0.2),
+        "speed": Param("float", "sliding speed along the plate", 0.03, "m/s", min=0.001, max=0.2, device="arm_speed"),
         "lift": Param("float", "foot lift off the ground while sliding", 0.003, "m", min=0.0, max=0.05),
         "smoothing": Param("float", "moving-average window along the plate", 0.03, "m", min=0.0),
         "fit_half_width": Param("float", "half width of the quadratic fit around the best sample", 0.08, "m", min=0.005),
@@ -73,11 +73,11 @@ class FindMaxLoad(ProgramSkill):
                            "mean cancels it (false: one pass, half the time)", True),
         "max_regrasps": Param("int", "firmer re-grasps and rescans before giving up", 1, min=0, max=5),
         "regrasp_squeeze": Param("float", "further closing at each re-grasp", 0.01, "m", min=0.0005, max=0.03),
-        "regrasp_force": Param("float", "gripper force limit of a re-grasp", 80.0, "N", min=1.0),
+        "regrasp_force": Param("float", "gripper force limit of a re-grasp", 80.0, "N", min=1.0, device="gripper_force"),
         "touch_eps": Param("float", "force change that means the foot touched the ground before a re-grasp",
                            0.5, "px", min=0.0),
         "max_scan_force": Param("float", "TCP force the arm may feel while scanning before the scan stops "
-                                "(0: no check; cells without a force sensor read 0 N)", 100.0, "N", min=0.0),
+                                "(0: no check; cells without a force sensor read 0 N)", 100.0, "N", min=0.0, device="arm_force"),
     }
     READS = (keys.ELEMENT, keys.PLATES, keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT,
              keys.ROBOT_MOVING, keys.ROBOT_WRENCH, keys.GRIPPER_WIDTH, keys.GRIPPER_OBJECT, keys.GRIPPER_FAULT, keys.GRIPPER_MOVING)

@@ -21,8 +21,8 @@ class ForceTrack(TrackingSkill):
     NAME = "force_track"
     SUMMARY = "follow a person's push or pull on the held object (FollowMe) with SpeedCtrl"
     PARAMS = {
-        "v_min": Param("float", "speed at f_min", 0.0, "m/s", min=0.0),
-        "v_max": Param("float", "speed at f_max and above", 0.1, "m/s", min=0.0, max=0.25),
+        "v_min": Param("float", "speed at f_min", 0.0, "m/s", min=0.0, device="arm_speed"),
+        "v_max": Param("float", "speed at f_max and above", 0.1, "m/s", min=0.0, max=0.25, device="arm_speed"),
         "f_min": Param("float", "force mapped to v_min", 0.05, "px", min=0.0),
         "f_max": Param("float", "force mapped to v_max", 2.0, "px", min=0.0),
         "eps": Param("float", "dead band: smaller forces do not move the arm", 0.08, "px", min=0.0),

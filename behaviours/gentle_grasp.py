@@ -25,8 +25,8 @@ class GentleGrasp(ProgramSkill):
         "noise_factor": Param("float", "a marker counts only beyond this many times the rest noise measured "
                               "before closing (when that is above `threshold`)", 4.0, min=0.0),
         "squeeze": Param("float", "extra closing after contact, for a firm hold", 0.005, "m", min=0.0, max=0.02),
-        "force": Param("float", "gripper force limit", 40.0, "N", min=0.0),
-        "min_width": Param("float", "width at which closing gives up (nothing grasped)", 0.002, "m", min=0.0),
+        "force": Param("float", "gripper force limit", 40.0, "N", min=0.0, device="gripper_force"),
+        "min_width": Param("float", "width at which closing gives up (nothing grasped)", 0.002, "m", min=0.0, device="gripper_width"),
         "max_time": time_limit(20.0, "give up when no contact is felt within this time"),
     }
     READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.GRIPPER_WIDTH, keys.GRIPPER_FAULT, keys.GRIPPER_MOVING)

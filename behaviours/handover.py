@@ -46,7 +46,7 @@ class Handover(ProgramSkill):
         "slip": Param("float", "slip (both fingers) that counts as the object moving", 0.05, min=0.0),
         "threshold": Param("float", "per-marker force change that counts as pressed", 0.3, "px", min=0.0),
         "min_markers": Param("int", "markers that must change for the force to count", 8, min=1),
-        "force": Param("float", "gripper force limit", 20.0, "N", min=0.0),
+        "force": Param("float", "gripper force limit", 20.0, "N", min=0.0, device="gripper_force"),
         "opening": Param("float", "give: how far to open beyond the holding width", 0.02, "m", min=0.001),
         "settle": Param("int", "receive: ticks without slip on the stopped gripper that mean it is ours", 10, min=1),
         "wait": Param("float", "give up when the person has not acted within this time", 15.0, "s", min=0.0),

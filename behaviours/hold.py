@@ -20,9 +20,9 @@ class Hold(ProgramSkill):
     PARAMS = {
         "slip": Param("float", "slip (both fingers) that triggers a tightening step", 0.06, min=0.0),
         "step": Param("float", "gripper closing step per trigger", 0.0005, "m", min=1e-5, max=0.005),
-        "force": Param("float", "gripper force limit while tightening", 40.0, "N", min=0.0),
+        "force": Param("float", "gripper force limit while tightening", 40.0, "N", min=0.0, device="gripper_force"),
         "duration": Param("float", "hold this long, then succeed; 0 holds until halted", 5.0, "s", min=0.0),
-        "min_width": Param("float", "width at which tightening gives up", 0.002, "m", min=0.0),
+        "min_width": Param("float", "width at which tightening gives up", 0.002, "m", min=0.0, device="gripper_width"),
         "gone_share": gone_share(),
         "limit_steps": Param("int", "tightening steps in a row that do not close the fingers (force limit) "
                              "before giving up on a slipping object", 10, min=1),

@@ -25,7 +25,7 @@ class InHandMan(ProgramSkill):
         "step": Param("float", "gripper step", 0.0005, "m", min=1e-5, max=0.005),
         "slip": Param("float", "slip (both fingers) that means the object turns", 0.05, min=0.0),
         "opening": Param("float", "largest opening beyond the starting width", 0.01, "m", min=0.0005, max=0.05),
-        "force": Param("float", "gripper force limit", 40.0, "N", min=0.0),
+        "force": Param("float", "gripper force limit", 40.0, "N", min=0.0, device="gripper_force"),
         "max_time": time_limit(20.0),
     }
     READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.GRIPPER_WIDTH)

@@ -40,7 +40,7 @@ class InHandRot(ProgramSkill):
                            3, min=1),
         "settle": Param("int", "torque variant: ticks of zero torque that end the rotation", 10, min=1),
         "max_time": time_limit(20.0),
-        "force": Param("float", "gripper force when closing again", 40.0, "N", min=0.0),
+        "force": Param("float", "gripper force when closing again", 40.0, "N", min=0.0, device="gripper_force"),
     }
     READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.GRIPPER_WIDTH, keys.GRIPPER_FAULT, keys.GRIPPER_MOVING)
     WRITES = (keys.OBJECT_ANGLE,)

@@ -19,7 +19,7 @@ class LocateElement(ProgramSkill):
     SUMMARY = "find the current element at its pick pose and centre the open fingers on it"
     PARAMS = {
         "hover": Param("float", "approach height above the element's top", 0.08, "m", min=0.0, max=0.5),
-        "speed": Param("float", "approach speed", 0.15, "m/s", min=0.001, max=1.0),
+        "speed": Param("float", "approach speed", 0.15, "m/s", min=0.001, max=1.0, device="arm_speed"),
         "gain": Param("float", "centring step per unit of left/right area imbalance", 0.01, "m", min=0.0),
         "tolerance": Param("float", "accepted left/right area imbalance (share of their sum)", 0.05, min=0.0, max=1.0),
         "max_ticks": Param("int", "ticks allowed for centring", 200, min=1),

@@ -18,7 +18,7 @@ class MoveTo(ProgramSkill):
     PARAMS = {
         "pose": Param("vector", "absolute target pose [x, y, z, rx, ry, rz]", None, "m, rad", length=6),
         "offset": Param("vector", "base-frame offset from the current pose", None, "m", length=3),
-        "speed": Param("float", "TCP speed", 0.1, "m/s", min=0.001, max=1.0),
+        "speed": Param("float", "TCP speed", 0.1, "m/s", min=0.001, max=1.0, device="arm_speed"),
     }
     READS = (keys.ROBOT_POSE, keys.ROBOT_FAULT, keys.ROBOT_MOVING)
 

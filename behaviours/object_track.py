@@ -4,7 +4,18 @@ x_{t+1} = x_t + min(x_bar, x_max) 1(|x_bar| > x_eps). Along the closing axis (to
 cannot show a shift, only how hard the object presses into a pad, which grows the area that pad
 sees: with M_t the area the left pad sees, y_{t+1} = y_t + Delta (1(M_t <= M_eps) - 1(M_t > M_eps)),
 so the hand follows the object off the left pad (+y) or into it (-y). A dead band `area_band`
-about M_eps keeps the hand still while the object rests."""
+about M_eps keeps the hand still while the object rests.
+
+That area changes only as much as the gel under the object compresses (the object comes nearer the
+camera by load / gel stiffness, a few per cent of the camera's depth at most), so vision may not see a
+push along the closing axis at all (a stiff gel, a camera set deep, an object filling the view). The
+pads' normal loads, read from the markers, do show it: when they differ from the grasp's by more
+than `unseen_force` for `unseen_time` while the area stays inside its dead band, the skill fails
+saying vision cannot follow the axis perpendicular to the skin (the paper's finding), instead of
+succeeding with the hand left behind; force_track follows that axis. It fails, too, when the pipeline
+warns that its object colour model matches more of the empty view than `max_false_object` of the
+object's own seen area (a background of the object's colour, glare): the centroid and area it would
+follow are then not the object's."""
 
 from __future__ import annotations
 
@@ -12,7 +23,10 @@ import numpy as np
 
 from behaviours.skill_kit.base import Param
 from behaviours.skill_kit.follow_me import TrackingSkill
+from behaviours.skill_kit.hand import hand_force
 from behaviours.skill_kit.registry import register
+from behaviours.skill_kit.sensor import sensor_profile
+from perception.fingervision import background_match_of
 
 
 @register
@@ -25,16 +39,59 @@ class ObjectTrack(TrackingSkill):
         "eps": Param("float", "dead band on the offset (x_eps)", 0.02, min=0.0),
         "delta": Param("float", "closing-axis step per tick (Delta)", 0.0015, "m", min=0.0, max=0.005),
         "m_eps": Param("float", "closing-axis area threshold M_eps (share of the left pad's image); 0 takes "
-                       "the area it sees at the start", 0.0, min=0.0, max=1.0),
+                       "the mean area it sees over the first `reference_ticks`", 0.0, min=0.0, max=1.0),
+        "reference_ticks": Param("int", "ticks averaged at the start for M_eps and the pads' own normal loads",
+                                 10, min=1),
         "area_band": Param("float", "dead band about M_eps, share of M_eps", 0.05, min=0.0, max=1.0),
+        "unseen_force": Param("float", "closing-axis push (difference of the pads' normal loads from the "
+                              "grasp's, from the markers) that vision must see; 0 never checks", 8.0, "N", min=0.0),
+        "max_false_object": Param("float", "fail when a camera's colour model takes more than this share of the "
+                                  "object's own seen area of the empty view for the object (pipeline's warning)", 0.5,
+                                  min=0.0),
+        "unseen_time": Param("float", "how long such a push may go unseen before the skill fails", 0.5, "s",
+                             min=0.0),
         **TrackingSkill.COMMON,
     }
 
     def start(self):
-        left, _ = self.tactile()
-        self._m_eps = self.p.m_eps or left.obj.area
-        return
-        yield
+        areas, force = np.zeros(2), 0.0
+        for tick in range(self.p.reference_ticks):
+            if tick:
+                yield
+            left, right = self.tactile()
+            areas += (left.obj.area, right.obj.area)
+            force += hand_force(left, right)[1]
+        areas /= self.p.reference_ticks
+        self._area0 = {"left": areas[0], "right": areas[1]}
+        self._m_eps = self.p.m_eps or areas[0]
+        self._f0 = force / self.p.reference_ticks
+        self._px_per_n = sensor_profile(self.cell).normal_px_per_n
+        self._unseen_since: float | None = None
+
+    def _area_steps(self, area: float) -> bool:
+        """Whether the left pad's area is outside the dead band about M_eps (the closing-axis rule acts)."""
+        return abs(area - self._m_eps) > self.p.area_band * self._m_eps
+
+    def blind(self, left, right) -> str:
+        for state in (left, right):
+            match = background_match_of(state.health_reason)
+            if match > self.p.max_false_object * self._area0[state.finger]:
+                return (f"the {state.finger} camera cannot tell the object from its background (its colour model "
+                        f"takes {match:.1%} of the empty view for it, the object covers {self._area0[state.finger]:.1%}): "
+                        "the centroid and area to follow are not the object's")
+        push = (hand_force(left, right)[1] - self._f0) / self._px_per_n  # N, from the pads' normal loads
+        limit = self.p.unseen_force
+        if "y" not in self.p.axes or not limit or abs(push) <= limit or self._area_steps(left.obj.area):
+            self._unseen_since = None
+            return ""
+        if self._unseen_since is None:
+            self._unseen_since = self.now()
+        if self.now() - self._unseen_since < self.p.unseen_time:
+            return ""
+        return (f"the object is pushed along the closing axis ({push:+.1f} N on the pads for "
+                f"{self.now() - self._unseen_since:.1f} s) but the area the camera sees stays within "
+                f"{self.p.area_band:.0%} of M_eps: vision cannot follow the axis perpendicular to the skin; "
+                "follow it with force_track")
 
     def velocity(self, left, right) -> np.ndarray:
         # Image x is mirrored on the left finger; image y runs along tool z on both.
@@ -43,5 +100,5 @@ class ObjectTrack(TrackingSkill):
         along = np.clip(offset, -self.p.max_offset, self.p.max_offset) * (np.abs(offset) > self.p.eps) * self.p.gain
         m = left.obj.area
         off_left = float(m <= self._m_eps) - float(m > self._m_eps)
-        across = self.p.delta * off_left * (abs(m - self._m_eps) > self.p.area_band * self._m_eps)
+        across = self.p.delta * off_left * self._area_steps(m)
         return np.array([along[0], across, along[1]]) / self.cell.clock.period

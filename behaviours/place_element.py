@@ -24,7 +24,7 @@ class PlaceElement(ProgramSkill):
         "opening": Param("float", "opening beyond the grasp width", 0.02, "m", min=0.001),
         "retract": Param("vector", "base-frame retreat after release", [0.0, -0.2, 0.0], "m", length=3),
         "lift": Param("float", "height gained after the retreat", 0.1, "m", min=0.0),
-        "speed": Param("float", "retreat speed", 0.1, "m/s", min=0.001),
+        "speed": Param("float", "retreat speed", 0.1, "m/s", min=0.001, device="arm_speed"),
         "max_time": time_limit(10.0, "give up when the fingers have not opened within this time"),
     }
     READS = (keys.ELEMENT, keys.FV_LEFT, keys.FV_RIGHT, keys.MEASURED_LOAD, keys.ELEMENT_LENGTH,

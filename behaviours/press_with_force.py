@@ -16,7 +16,6 @@ from behaviours.skill_kit.geometry import rotation
 from behaviours.skill_kit.model_files import UsesModel
 from behaviours.skill_kit.registry import register
 from perception.learning.features import tick_features
-from perception.learning.force import predict_force
 
 
 @register
@@ -29,7 +28,7 @@ class PressWithForce(UsesModel, ProgramSkill):
         "target": Param("float", "force to press with", 5.0, "N", min=0.0),
         "tolerance": Param("float", "how close to the target counts as reached", 0.3, "N", min=0.01),
         "gain": Param("float", "press speed per newton of force error", 0.002, "m/s/N", min=0.0),
-        "max_speed": Param("float", "press speed limit", 0.005, "m/s", min=1e-4, max=0.05),
+        "max_speed": Param("float", "press speed limit", 0.005, "m/s", min=1e-4, max=0.05, device="arm_speed"),
         "settle": Param("int", "ticks the force must stay within the tolerance", 10, min=1),
         "max_travel": Param("float", "give up after pressing this far", 0.1, "m", min=0.0, max=1.0),
         "max_force": Param("float", "abort above this force", 20.0, "N", min=0.0),
@@ -40,6 +39,8 @@ class PressWithForce(UsesModel, ProgramSkill):
     WRITES = (keys.PRESS_FORCE,)
 
     def program(self):
+        from perception.learning.force import predict_force  # scikit-learn: loaded by a run, not by `fvtree validate`
+
         if self.model is None:
             return self.fail(self.model_error)
         model = self.model

@@ -21,7 +21,7 @@ class VisScan(ProgramSkill):
         "edge_fraction": Param("float", "share of the full-view area at which the edge is declared", 0.5, min=0.05, max=0.95),
         "max_travel": Param("float", "longest scan in each direction", 0.5, "m", min=0.01, max=1.0),
         "length_tolerance": Param("float", "allowed difference from the design length", 0.02, "m", min=0.0),
-        "speed": Param("float", "speed of the final move to the middle", 0.1, "m/s", min=0.001),
+        "speed": Param("float", "speed of the final move to the middle", 0.1, "m/s", min=0.001, device="arm_speed"),
         "reference_ticks": Param("int", "ticks the full-view area is averaged over (the seen area is noisy)", 5,
                                  min=1),
     }

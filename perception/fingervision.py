@@ -8,6 +8,7 @@ with no contact (marker map and background), or load a saved marker map.
 from __future__ import annotations
 
 import dataclasses
+import re
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -28,6 +29,19 @@ from perception.state import FINGERS, MarkerField, ObjectInfo, TactileState
 from perception.tracking_kernels import warm_up as warm_tracking_kernels
 from perception.wrench import warm_up as warm_wrench_kernel
 from perception.wrench import wrench
+
+# Share of the empty view the object colour model may take for the object before every state warns
+# that the object's figures are unreliable (pixel mode's default look: 0; a held object: ~0.2).
+MAX_BACKGROUND_MATCH = 0.01
+OBJECT_UNRELIABLE = "object colour model matches"  # how that warning starts (`background_match_of` reads it)
+
+
+def background_match_of(reason: str) -> float:
+    """The share of the empty view a state's `health_reason` says the object colour model matches
+    (0.0 when it does not warn): what a skill that follows the object by vision weighs against the
+    object's own area."""
+    found = re.search(OBJECT_UNRELIABLE + r" ([0-9.]+)%", reason)
+    return float(found.group(1)) / 100.0 if found else 0.0
 
 
 class NotCalibratedError(FvtreeError, RuntimeError):
@@ -119,7 +133,7 @@ class FingerVision:
         reason = "" if healthy else (f"only {tracked:.0%} of markers tracked "
                                      f"(< {self.config.health.min_tracked:.0%}); contact occluding "
                                      f"the skin, lighting changed, or recalibration needed")
-        reason = "; ".join(r for r in (reason, warning) if r)  # on a healthy state: a warning
+        reason = "; ".join(r for r in (reason, warning, self._object_warning()) if r)  # on a healthy state: a warning
         return TactileState(self.finger, stamp, markers, force, torque, obj, slip, healthy, reason)
 
     def _adopt(self, new: NewMarkers | None) -> None:
@@ -139,6 +153,19 @@ class FingerVision:
         if saturated <= self.config.health.saturated_share:
             return ""
         return f"image washed out ({saturated:.0%} of pixels saturated); reduce exposure or glare"
+
+    def _object_warning(self) -> str:
+        """A warning when the object colour model also matches the empty view (the paper's failure:
+        lighting, glare or a background of the object's colour), so the object's area and centroid
+        are not to be trusted."""
+        if not self.config.proximity.enabled:
+            return ""
+        match = self.proximity.background_match()
+        if match <= MAX_BACKGROUND_MATCH:
+            return ""
+        return (f"{OBJECT_UNRELIABLE} {match:.1%} of the empty view (glare, lighting or a background "
+                "of the object's colour): the object's area and centroid are unreliable; mark the object "
+                "again or change its colour or the background")
 
     def _proximity(self, bgr: np.ndarray) -> tuple[ObjectInfo, float]:
         if not self.config.proximity.enabled:

@@ -58,6 +58,8 @@ class ProximityVision:
         self.learning = False
         self._frames = 0
         self._mask_lut: tuple[np.ndarray, np.ndarray] | None = None  # (tracking model, its binary LUT)
+        self._empty: ProxFrame | None = None  # the first background frame: the view with no object
+        self._match: tuple[np.ndarray, float] | None = None  # (tracking model, its background match)
 
     def _zero(self) -> np.ndarray:
         return np.zeros(self.cfg.bins, np.float32)
@@ -86,8 +88,22 @@ class ProximityVision:
         """Background histogram: the mean over up to `n_bg_frames` frames with no object."""
         if not frames:
             raise ValueError("background calibration needs at least one frame with no object")
-        hists = [self._hist(self.prepare(f), None) for f in frames[: self.cfg.n_bg_frames]]
-        self.background = np.mean(hists, axis=0).astype(np.float32)
+        prepared = [self.prepare(f) for f in frames[: self.cfg.n_bg_frames]]
+        self.background = np.mean([self._hist(f, None) for f in prepared], axis=0).astype(np.float32)
+        self._empty, self._match = prepared[0], None
+
+    def background_match(self) -> float:
+        """Share of the empty view (the first background frame) the object mask covers: what the
+        tracking model takes for the object where there is none (its colours are the background's,
+        glare's or a colour cast's). 0 without a model or a background; computed again only when the
+        tracking model changes."""
+        if self._empty is None or not self.has_model:
+            return 0.0
+        model = self._models[-1]
+        if self._match is None or self._match[0] is not model:
+            obj, _ = self.object_masks(self._empty)
+            self._match = (model, float(np.count_nonzero(obj)) / obj.size)
+        return self._match[1]
 
     @property
     def has_model(self) -> bool:

@@ -7,7 +7,7 @@ object centroid normalised by the image size ((W + H) / 2), orientation in radia
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -29,12 +29,12 @@ class MarkerField:
     """Tracked markers of one sensor: calibrated origin (N, 2) px, current position (N, 2) px and
     size (N,) px diameter, calibrated size, validity (N,) (tracked this frame), image (W, H)."""
 
-    origin: np.ndarray
-    position: np.ndarray
-    origin_size: np.ndarray
-    size: np.ndarray
-    valid: np.ndarray
-    image_size: tuple[int, int]
+    origin: np.ndarray = field(metadata={"doc": "calibrated marker positions (N, 2)", "unit": "px"})
+    position: np.ndarray = field(metadata={"doc": "tracked marker positions this frame (N, 2)", "unit": "px"})
+    origin_size: np.ndarray = field(metadata={"doc": "calibrated marker diameters (N,)", "unit": "px"})
+    size: np.ndarray = field(metadata={"doc": "marker diameters this frame (N,)", "unit": "px"})
+    valid: np.ndarray = field(metadata={"doc": "whether each marker was tracked this frame (N,)"})
+    image_size: tuple[int, int] = field(metadata={"doc": "camera image (width, height)", "unit": "px"})
 
     def __init__(self, origin: np.ndarray | None = None, position: np.ndarray | None = None,
                  origin_size: np.ndarray | None = None, size: np.ndarray | None = None,
@@ -67,12 +67,12 @@ class ObjectInfo:
     image the object mask covers, 0..1), centroid (normalised image coordinates), orientation (rad,
     principal axis of the mask), cells (object fill per 3x3 cell, 0..1), motion_cells (moving share)."""
 
-    present: bool
-    area: float
-    centroid: np.ndarray
-    orientation: float
-    cells: np.ndarray
-    motion_cells: np.ndarray
+    present: bool = field(metadata={"doc": "an object is seen through the skin"})
+    area: float = field(metadata={"doc": "share of the image the object mask covers, 0..1"})
+    centroid: np.ndarray = field(metadata={"doc": "object centre [x, y], normalised by the image size"})
+    orientation: float = field(metadata={"doc": "principal axis of the object mask", "unit": "rad"})
+    cells: np.ndarray = field(metadata={"doc": "object fill per cell of a 3x3 grid, 0..1"})
+    motion_cells: np.ndarray = field(metadata={"doc": "moving share per cell of a 3x3 grid, 0..1"})
 
     def __init__(self, present: bool = False, area: float = 0.0, centroid: np.ndarray | None = None,
                  orientation: float = 0.0, cells: np.ndarray | None = None, motion_cells: np.ndarray | None = None):
@@ -88,15 +88,15 @@ class TactileState:
     markers, force [shear x, normal, shear z] and torque, object, slip (moving object pixels, share
     of the image: the original mv_s scale), health and its reason."""
 
-    finger: str
-    stamp: float
-    markers: MarkerField
-    force: np.ndarray
-    torque: np.ndarray
-    obj: ObjectInfo
-    slip: float
-    healthy: bool
-    health_reason: str
+    finger: str = field(metadata={"doc": "left or right"})
+    stamp: float = field(metadata={"doc": "time of the frame on the cell clock", "unit": "s"})
+    markers: MarkerField = field(metadata={"doc": "the tracked marker field"})
+    force: np.ndarray = field(metadata={"doc": "[shear x, normal, shear z]", "unit": "px, or N when calibrated"})
+    torque: np.ndarray = field(metadata={"doc": "torque about [x, y, z]", "unit": "px, or N m when calibrated"})
+    obj: ObjectInfo = field(metadata={"doc": "proximity vision: the object seen through the skin"})
+    slip: float = field(metadata={"doc": "moving object pixels, share of the image (the original mv_s scale)"})
+    healthy: bool = field(metadata={"doc": "the sensor's frames and markers are usable"})
+    health_reason: str = field(metadata={"doc": "why the sensor is unhealthy (empty when healthy)"})
 
     def __init__(self, finger: str, stamp: float, markers: MarkerField | None = None,
                  force: np.ndarray | None = None, torque: np.ndarray | None = None, obj: ObjectInfo | None = None,

@@ -10,11 +10,9 @@ unless a calibration gives scale factors. Only valid markers enter the average.
 
 from __future__ import annotations
 
-import math
 from typing import Literal
 
 import numpy as np
-from numba import njit
 
 from perception.state import MarkerField
 
@@ -137,6 +135,8 @@ def wrench(
     valid = _valid(markers)
     terms = wrench_terms(markers, finger)
     if averaging == "mean" and mode == "xy_norm":
+        from perception.wrench_kernel import mean_wrench
+
         force, torque = mean_wrench(np.ascontiguousarray(markers.position, float),
                                     np.ascontiguousarray(markers.origin, float), terms, valid)
         return _scaled(force, force_scale), _scaled(torque, torque_scale)
@@ -168,28 +168,3 @@ def warm_up() -> None:
 def _scaled(values: np.ndarray, scale: np.ndarray | float) -> np.ndarray:
     """`values * scale`, skipping the (exact, but not free) product with the default scale 1."""
     return values if isinstance(scale, float) and scale == 1.0 else values * scale
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def mean_wrench(position, origin, terms, valid):  # pragma: no cover - compiled
-    """(force, torque): the mean over the valid markers of the seven products of [dx, normal, dy,
-    normal, dx, normal, dy] (normal = |(dx, dy)|) with `terms`, summed marker by marker in one pass
-    (the seventh added to the fifth: torque about the finger normal); zeros when none is valid. It
-    runs for every finger on every tick, and numpy's small-array calls cost more than the sums."""
-    sums = np.zeros(6)
-    count = 0
-    for i in range(len(valid)):
-        if not valid[i]:
-            continue
-        count += 1
-        dx, dy = position[i, 0] - origin[i, 0], position[i, 1] - origin[i, 1]
-        normal = math.hypot(dx, dy)
-        sums[0] += dx * terms[i, 0]
-        sums[1] += normal * terms[i, 1]
-        sums[2] += dy * terms[i, 2]
-        sums[3] += normal * terms[i, 3]
-        sums[4] += dx * terms[i, 4] + dy * terms[i, 6]
-        sums[5] += normal * terms[i, 5]
-    if count:
-        sums /= count
-    return sums[:3], sums[3:]

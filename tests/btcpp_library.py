@@ -1,5 +1,6 @@
 """The real BehaviorTree.CPP v4 for the tests: the library inside the `behaviortreepy` wheel (PyPI),
-driven through a small C++ file of stub nodes (tests/data/btcpp/stub_nodes.cpp).
+driven through a small C++ file of stub nodes (tests/data/btcpp/stub_nodes.cpp), which models
+fvtree's own kinds (ForEachElement, StatusMap, FvParallel) as fvtree runs them.
 
 behaviortreepy's Python API registers nodes without ports (`register_simple_action(name, fn)`), and
 BT.CPP refuses any port attribute its registered node does not declare, so it alone cannot load a
@@ -43,6 +44,7 @@ class Run:
     status: str
     ticks: int
     reads: list[tuple[str, str, dict[str, str]]]
+    elements: list[tuple[str, str]]  # (ForEachElement path, element id), each time it starts one
 
 
 class Library:
@@ -51,6 +53,7 @@ class Library:
     def __init__(self, path: Path):
         self._lib = ctypes.CDLL(str(path))
         for name, args in (("fv_btcpp_run", [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_int]),
+                           ("fv_btcpp_fulltree", [ctypes.c_char_p, ctypes.c_char_p]),
                            ("fv_btcpp_xsd", [ctypes.c_char_p]), ("fv_btcpp_version", [])):
             getattr(self._lib, name).argtypes = args
             getattr(self._lib, name).restype = ctypes.c_char_p
@@ -59,21 +62,34 @@ class Library:
         """BT.CPP's own version string (e.g. 4.8.2)."""
         return self._lib.fv_btcpp_version().decode()
 
-    def run(self, xml: str, failing: Iterable[str] = (), max_ticks: int = 1000) -> Run:
+    def run(self, xml: str, failing: Iterable[str] = (), max_ticks: int = 1000, elements: Iterable[str] = ()) -> Run:
         """Load `xml` with stubs for its `<TreeNodesModel>` (those named in `failing` fail, the
-        others succeed) and tick it until it stops running; RuntimeError with BT.CPP's message if
-        it refuses the file or a port."""
-        text = spec(xml, blackboard=True) + "".join(f"F\t{name}\n" for name in failing)
+        others succeed; a ForEachElement without `elements` runs over `elements`, the design's) and
+        tick it until it stops running; RuntimeError with BT.CPP's message if it refuses the file
+        or a port."""
+        text = (spec(xml, blackboard=True) + "".join(f"F\t{name}\n" for name in failing)
+                + "".join(f"E\t{element}\n" for element in elements))
         out = self._lib.fv_btcpp_run(text.encode(), xml.encode(), max_ticks).decode()
         if out.startswith("ERROR\t"):
             raise RuntimeError(out[6:])
         head, *lines = out.splitlines()
         _, status, ticks = head.split("\t")
-        reads = []
+        reads, started = [], []
         for line in lines:
-            _, path, node_id, *ports = line.split("\t")
-            reads.append((path, node_id, dict(p.split("=", 1) for p in ports)))
-        return Run(status, int(ticks), reads)
+            kind, path, node_id, *ports = line.split("\t")
+            if kind == "ELEMENT":
+                started.append((path, node_id))
+            else:
+                reads.append((path, node_id, dict(p.split("=", 1) for p in ports)))
+        return Run(status, int(ticks), reads, started)
+
+    def fulltree(self, xml: str) -> str:
+        """What BT.CPP's Groot2 publisher sends for `xml` loaded with stubs (`WriteTreeToXML` with
+        `_uid`, `_fullpath` and the models): the reference for `fvtree run --groot2`'s tree."""
+        out = self._lib.fv_btcpp_fulltree(spec(xml, blackboard=True).encode(), xml.encode()).decode()
+        if out.startswith("ERROR\t"):
+            raise RuntimeError(out[6:])
+        return out
 
     def xsd(self, xml: str) -> str:
         """BT.CPP's writeTreeXSD for a factory with the nodes of `xml`'s `<TreeNodesModel>`."""

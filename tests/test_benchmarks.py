@@ -70,3 +70,12 @@ def test_bench_seeds(tmp_path):
     text = (tmp_path / "seeds.md").read_text()
     assert "| press_with_force.yaml | 1/1 | 1/1 |" in text and "Every run succeeded." in text
     assert (tmp_path / "seeds.png").stat().st_size > 5_000
+
+
+def test_bench_validate(tmp_path):
+    assert main(["bench", "validate", "--quick", "--out", str(tmp_path)]) == 0
+    rows = read_csv(tmp_path / "validate.csv")
+    assert [r["tree"] for r in rows] == ["trees/assembly.yaml"] * 3
+    assert all(float(r["seconds"]) > 0 and float(r["cpu_seconds"]) > 0 and float(r["peak_mb"]) > 10 for r in rows)
+    assert "| trees/assembly.yaml | 3 |" in (tmp_path / "validate.md").read_text()
+    assert (tmp_path / "validate.png").stat().st_size > 5_000

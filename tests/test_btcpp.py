@@ -40,7 +40,7 @@ root:
   selector: top
   memory: false
   children:
-    - {condition: label, key: /task/substance.label, op: eq, value: peas}
+    - {condition: label, key: /fv/left.health_reason, op: eq, value: peas}
     - {condition: stopped, key: /task/estop, op: eq, value: true}
     - {condition: built, key: /task/asbuilt, op: exists}
     - sequence: work
@@ -104,7 +104,7 @@ def test_every_node_kind_round_trips_and_the_xml_is_valid(tmp_path):
                      '<Guard name="while_light" _while="@fv_left__force__2 &lt;= 10.0">',
                      'code="@fv_left__force__2 &lt; limit"', 'num_attempts="{tries}"', '<Timeout name="quick" msec="2500">',
                      '<BlackboardCheck name="built" key="/task/asbuilt" op="exists" />',
-                     'code="@robot_pose__m1 != 0.0"', 'code="@task_substance__label == \'peas\'"'):
+                     'code="@robot_pose__m1 != 0.0"', 'code="@fv_left__health_reason == \'peas\'"'):
         assert spelling in text
     back = write(tmp_path, "back.yaml", import_xml(xml, tmp_path / "back.yaml"))
     original, returned = load_tree(tree, dataflow=False), load_tree(back, dataflow=False)

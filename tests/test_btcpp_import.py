@@ -78,6 +78,72 @@ BAD = """\
 """
 
 
+AUTOREMAP = """\
+<root BTCPP_format="4" main_tree_to_execute="Main">
+  <BehaviorTree ID="Main">
+    <Sequence name="top">
+      <SubTree ID="Lift" name="up" _autoremap="true"/>
+      <SubTree ID="Lift" name="up_slowly" _autoremap="true" speed="0.01"/>
+      <SubTree ID="Carry" name="carry" _autoremap="true"/>
+      <SubTree ID="Carry" name="carry_given" _autoremap="false" pace="0.3"/>
+    </Sequence>
+  </BehaviorTree>
+  <BehaviorTree ID="Lift">
+    <move_to name="lift" offset="0;0;0.05" speed="{speed}"/>
+  </BehaviorTree>
+  <BehaviorTree ID="Carry">
+    <Sequence name="carry_body">
+      <SubTree ID="Lift" name="inner" _autoremap="true"/>
+      <move_to name="over" offset="0;0;0.1" speed="{pace}"/>
+    </Sequence>
+  </BehaviorTree>
+  <TreeNodesModel>
+    <SubTree ID="Main" editable="true"><input_port name="speed" default="0.2"/></SubTree>
+    <SubTree ID="Lift" editable="true"><input_port name="speed" default="0.1"/></SubTree>
+    <SubTree ID="Carry" editable="true">
+      <input_port name="speed" type="double" default="0.05"/><input_port name="pace" type="double"/>
+    </SubTree>
+  </TreeNodesModel>
+</root>
+"""
+
+
+def walk(spec):
+    yield spec
+    for child in spec.children:
+        yield from walk(child)
+
+
+def test_autoremap_passes_the_namesakes_of_the_enclosing_tree(tmp_path):
+    xml = tmp_path / "autoremap.xml"
+    xml.write_text(AUTOREMAP.replace('name="carry" _autoremap="true"/>', 'name="carry" _autoremap="true" pace="0.2"/>'))
+    text = import_xml(xml, tmp_path / "autoremap.yaml")  # validated on the way
+    doc = yaml.safe_load(text)
+    up, up_slowly, carry, carry_given = doc["root"]["children"]
+    assert up["params"] == {"speed": 0.2}  # the main tree's port `speed`, as BT.CPP's parent blackboard
+    assert up_slowly["params"] == {"speed": 0.01}  # given: kept
+    assert carry["params"] == {"speed": 0.2, "pace": 0.2}
+    assert carry_given["params"] == {"pace": 0.3}  # no autoremap: Carry's own default speed
+    inner = doc["subtrees"]["Carry"]["root"]["children"][0]
+    assert inner == {"subtree": "Lift", "name": "inner", "params": {"speed": "$speed"}}  # Carry's param
+    (tmp_path / "autoremap.yaml").write_text(text)
+    nodes = {spec.path: spec for spec in walk(load_tree(tmp_path / "autoremap.yaml").root)}
+    assert nodes["top/up/lift"].args["params"]["speed"] == 0.2  # what BT.CPP's blackboard would hold
+    assert nodes["top/carry_given/carry_body/inner/lift"].args["params"]["speed"] == 0.05
+
+
+def test_autoremap_with_nothing_to_remap_a_required_param_to_is_refused(tmp_path):
+    xml = tmp_path / "autoremap.xml"
+    xml.write_text(AUTOREMAP.replace('_autoremap="false" pace="0.3"', '_autoremap="{flag}" pace="0.3"'))
+    with pytest.raises(TreeErrors) as caught:
+        import_xml(xml, tmp_path / "autoremap.yaml")
+    errors = [(e.line, e.message) for e in caught.value.errors]
+    line = AUTOREMAP.splitlines().index('      <SubTree ID="Carry" name="carry" _autoremap="true"/>') + 1
+    missing = "_autoremap: the subtree's param 'pace' has no default, and no port of the main tree is named 'pace'"
+    assert (line, missing + " to remap it to") in errors
+    assert (line + 1, "_autoremap: expected true or false, got '{flag}'") in errors
+
+
 def test_every_refusal_of_a_file_is_reported_at_once_with_its_xml_line(tmp_path, capsys):
     xml = tmp_path / "bad.xml"
     xml.write_text(BAD)

@@ -116,8 +116,12 @@ def bt_args(skill: str, ports: dict[str, str], out_dir: Path) -> dict:
 @pytest.mark.parametrize("tree", TREES, ids=[t.stem for t in TREES])
 def test_a_shipped_tree_loads_and_ticks_in_bt_cpp_with_the_ports_fvtree_gives(library, tree, tmp_path):
     xml = exported(tree, tmp_path)
-    run = library.run(xml, failing(xml))
+    design = load_tree(tree).design
+    order = design.build_order() if design is not None else []
+    run = library.run(xml, failing(xml), elements=order)
     assert run.status in ("SUCCESS", "FAILURE")
+    if "<ForEachElement" in xml:  # the child once per element of the design, in build order
+        assert [element for _, element in run.elements] == order and len(order) >= 2
     assert stub_names(xml) - reached(run) == UNREACHED.get(tree.stem, set())
     skills = [(path, node_id, ports) for path, node_id, ports in run.reads if node_id in SKILLS]
     nodes = skill_nodes(load_tree(tree).root)
@@ -157,6 +161,78 @@ def test_the_plugin_example_tree_loads_ticks_and_validates(library, bt4, plugin_
     xmlschema.XMLSchema(io.StringIO(library.xsd(plugin_export))).validate(plugin_export)
 
 
+MODELLED = """\
+version: 1
+name: modelled
+cell: {tick_hz: 30, scene: hold}
+root:
+  sequence: top
+  memory: true
+  children:
+    - status_map: swap
+      map: {success: failure, failure: success}
+      child: {skill: move_to, name: a, params: {offset: [0.0, 0.0, 0.01]}}
+    - parallel: loose
+      policy: all
+      synchronise: false
+      children:
+        - {skill: move_to, name: b, params: {offset: [0.0, 0.0, 0.01]}}
+        - {skill: move_to, name: c, params: {offset: [0.0, 0.0, 0.01]}}
+    - parallel: chosen
+      policy: selected
+      selected: [e]
+      synchronise: true
+      children:
+        - {skill: move_to, name: d, params: {offset: [0.0, 0.0, 0.01]}}
+        - {skill: move_to, name: e, params: {offset: [0.0, 0.0, 0.01]}}
+    - {skill: move_to, name: f, params: {offset: [0.0, 0.0, 0.01]}}
+"""
+LEAVES = set("abcdef")
+
+
+@pytest.mark.parametrize("fails", ["", "a", "ab", "ac", "ad", "ae", "af"])
+def test_fvtree_s_own_kinds_run_in_bt_cpp_as_in_fvtree(library, tmp_path, fails):
+    """A custom StatusMap and FvParallels with each leaf a double that succeeds or fails: BT.CPP
+    (with the stub library's models of those kinds) ends with fvtree's status, having ticked the
+    same leaves."""
+    from assembly.language.substitution import Rule
+    from assembly.run.options import RunOptions
+    from assembly.run.session import Run
+
+    tree = tmp_path / "modelled.yaml"
+    tree.write_text(MODELLED)
+    xml = exported(tree, tmp_path)
+    assert {"StatusMap", "FvParallel"} <= {e.tag for e in ET.fromstring(xml).iter()}
+    rules = tuple(Rule(f"*/{leaf}", "failure" if leaf in fails else "success") for leaf in sorted(LEAVES))
+    with Run(tree, RunOptions(runs_dir=tmp_path / "runs", quiet=True, plots=False, record=False,
+                              substitutions=rules)) as run:
+        result = run.loop()
+        log = [json.loads(line) for line in (run.run_dir / "transitions.jsonl").read_text().splitlines()]
+    ticked = {r["node"].rsplit("/", 1)[-1] for r in log if r["to"] != "INVALID"} & LEAVES
+    btcpp = library.run(xml, fails)
+    assert (btcpp.status, reached(btcpp) & LEAVES) == (result.status, ticked)
+
+
+def test_a_guard_whose_condition_is_false_is_skipped_in_bt_cpp_where_fvtree_fails_it(library, tmp_path):
+    """The known difference docs/btcpp.md states: BT.CPP's `_while` makes a false guard SKIPPED, and
+    the sequence goes on; fvtree's guard fails, and so does the sequence."""
+    tree = tmp_path / "guarded.yaml"
+    tree.write_text("version: 1\nname: guarded\ncell: {tick_hz: 30, scene: hold}\nroot:\n  sequence: top\n"
+                    "  memory: true\n  children:\n    - guard: only_when_slipping\n"
+                    "      while: {key: /fv/left.slip, op: gt, value: 0.5}\n"
+                    "      child: {skill: move_to, name: a, params: {offset: [0.0, 0.0, 0.01]}}\n"
+                    "    - {skill: move_to, name: after, params: {offset: [0.0, 0.0, 0.01]}}\n")
+    xml = exported(tree, tmp_path)
+    btcpp = library.run(xml)  # /fv/left.slip reads 0.0 there: the condition is false
+    assert (btcpp.status, reached(btcpp) & {"a", "after"}) == ("SUCCESS", {"after"})
+    from assembly.run.options import RunOptions
+    from assembly.run.session import Run
+
+    with Run(tree, RunOptions(runs_dir=tmp_path / "runs", quiet=True, plots=False, record=False)) as run:
+        result = run.loop()  # the held box does not slip: the condition is false
+    assert (result.status, result.where) == ("FAILURE", "top/only_when_slipping")
+
+
 def test_bt_cpp_refuses_what_it_should(library, tmp_path):
     """The checks have teeth: BT.CPP refuses the old processing instruction, a subtree param
     left without a value, a port its node does not declare and a value its type cannot read."""
@@ -166,7 +242,7 @@ def test_bt_cpp_refuses_what_it_should(library, tmp_path):
         library.run(xml.replace(meta, "<?fvtree {}?>"), failing(xml))
     without_default = xml.replace(' descend_speed="0.01"', "")
     with pytest.raises(RuntimeError, match=r"descend_speed"):
-        library.run(without_default, failing(xml))
+        library.run(without_default, failing(xml), elements=["E1"])  # the subtree runs once per element
     with pytest.raises(RuntimeError, match=r"\[sped\]"):
         library.run(xml.replace('<move_to name="home"', '<move_to name="home" sped="1"'), failing(xml))
     with pytest.raises(RuntimeError, match="angle"):
@@ -178,7 +254,7 @@ def test_groot2_subtree_models_load_in_bt_cpp_but_not_in_bt4(library, bt4, tmp_p
     loads the file, bt4.xsd does not allow them (so they are not written by default)."""
     xml = exported(ROOT / "trees" / "assembly.yaml", tmp_path, subtree_models=True)
     assert '<SubTree ID="prop_plate" editable="true">' in xml
-    assert library.run(xml, failing(xml)).status == "SUCCESS"
+    assert library.run(xml, failing(xml), elements=["E1", "E2"]).status == "SUCCESS"
     assert not bt4.is_valid(xml)
 
 

@@ -69,3 +69,26 @@ def test_no_false_errors_on_the_shipped_trees(tree):
 
 def test_tests_that_set_keys_by_hand_can_skip_the_check():
     assert load_tree(text="version: 1\nname: t\nroot: {skill: approach_plate}\n", dataflow=False)
+
+
+def test_a_condition_or_guard_on_a_key_written_only_later_is_refused():
+    later = ("  sequence: s\n  memory: true\n  children:\n"
+             "    - {condition: grasped, key: /task/grasp_width, op: gt, value: 0.01}\n"
+             "    - {skill: gentle_grasp, name: grasp}\n")
+    [problem] = problems(later)
+    assert "t.yaml:8: s/grasped: condition 'grasped' reads /task/grasp_width" in problem
+    assert "written by skill gentle_grasp" in problem
+    guarded = ("  guard: while_held\n  while: {key: /task/grasp_width, op: gt, value: 0.01}\n"
+               "  child: {skill: gentle_grasp, name: grasp}\n")
+    [problem] = problems(guarded)
+    assert "guard 'while_held' reads /task/grasp_width" in problem
+    before = ("  sequence: s\n  memory: true\n  children:\n    - {skill: gentle_grasp, name: grasp}\n"
+              "    - {condition: grasped, key: /task/grasp_width, op: gt, value: 0.01}\n")
+    assert problems(before) == []
+
+
+def test_a_condition_asking_whether_a_key_exists_needs_no_writer_before_it():
+    """`exists` asks whether the key has been written (skip a step already done): it reads no value."""
+    skip = ("  selector: once\n  memory: false\n  children:\n"
+            "    - {condition: done, key: /task/grasp_width, op: exists}\n    - {skill: gentle_grasp, name: grasp}\n")
+    assert problems(skip) == []

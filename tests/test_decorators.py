@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import json
+
+from assembly.cli import main
 from assembly.testing import TreeHarness
 
 LONG_MOVE = "{skill: move_to, name: go, params: {offset: [0.3, 0, 0], speed: 0.1}}"  # 3 s of motion
@@ -30,6 +33,21 @@ def test_guard_rechecks_every_tick_and_halts_the_child():
     h.tick()
     h.assert_status({"while_clear": "FAILURE", "while_clear/go": "INVALID"})
     assert h.arm.commands[-1].name == "stop"
+    # the failure says why: the key, the value it read and the comparison that did not hold
+    assert h.feedback("while_clear") == "guard condition failed: /task/estop = True, not eq False"
+
+
+def test_a_failed_condition_says_which_key_its_value_and_the_comparison():
+    h = harness("  sequence: s\n  memory: true\n  children:\n"
+                "    - {condition: wide, key: /gripper/width, op: gt, value: 0.5}\n")
+    h.tick()
+    h.assert_status({"s/wide": "FAILURE"})
+    assert h.feedback("s/wide").startswith("/gripper/width = ")
+    assert h.feedback("s/wide").endswith(", not gt 0.5")
+    h = harness("  sequence: s\n  memory: true\n  children:\n"
+                "    - {condition: pushed, key: \"/fv/left.force[1]\", op: lt, value: -1.0}\n")
+    h.tick()
+    assert h.feedback("s/pushed") == "/fv/left.force[1] = 0.0, not lt -1.0"
 
 
 def test_status_map_and_inverter():
@@ -85,3 +103,19 @@ def test_conditions_compare_nested_values():
                 "    - {condition: has, key: /robot/fault, op: eq, value: null}\n")
     h.tick()
     h.assert_status({"s": "SUCCESS"})
+
+
+def test_a_failed_guards_reason_reaches_the_run_summary_and_the_transition_log(tmp_path):
+    tree = tmp_path / "t.yaml"
+    tree.write_text("version: 1\nname: t\ncell: {scene: hold}\nroot:\n  guard: pressed\n"
+                    "  while: {key: \"/fv/left.force[1]\", op: gt, value: 5.0}\n"
+                    f"  child: {LONG_MOVE}\n")
+    assert main(["run", str(tree), "--runs-dir", str(tmp_path / "runs"), "--no-record", "--no-plots"]) != 0
+    (run,) = (tmp_path / "runs").iterdir()
+    summary = json.loads((run / "summary.json").read_text())
+    assert summary["where"] == "pressed"
+    assert summary["message"].startswith("guard condition failed: /fv/left.force[1] = ")
+    assert summary["message"].endswith(", not gt 5.0")
+    transitions = [json.loads(line) for line in (run / "transitions.jsonl").read_text().splitlines()]
+    assert any(t["node"] == "pressed" and t["to"] == "FAILURE" and t["feedback"] == summary["message"]
+               for t in transitions)

@@ -52,6 +52,23 @@ def test_gentle_grasp_stops_at_first_contact_then_squeezes():
     assert widths[-1] == pytest.approx(contact - 0.004)  # then the holding squeeze
 
 
+def test_the_contact_detector_skips_markers_the_pipeline_adopts_later():
+    """Pixel mode appends markers missed at calibration (under glare, say) once they show: the
+    gentle-grasp rule compares each finger's markers with its own reference and leaves the new ones
+    out (before: a crash, shapes (55, 3) and (54, 3), on a random look)."""
+    from behaviours.skill_kit.control import ForceChangeDetector
+
+    detector = ForceChangeDetector(threshold=0.9, min_markers=2, reference_frames=2)
+    rest = (np.zeros((27, 3)), np.zeros((27, 3)))
+    assert not detector.update(*rest) and not detector.update(*rest)
+    adopted = np.zeros((28, 3))
+    adopted[27] = 5.0  # the new marker: no reference, not counted
+    assert not detector.update(adopted, rest[1]) and detector.changed == 0
+    pressed = adopted.copy()
+    pressed[:3] = 2.0  # three referenced markers moved
+    assert detector.update(pressed, rest[1]) and detector.changed == 3
+
+
 def test_gentle_grasp_fails_when_nothing_is_felt():
     h = one_skill("gentle_grasp", "{step: 0.002}")
     assert h.run_until_done(200).name == "FAILURE"

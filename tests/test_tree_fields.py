@@ -120,7 +120,7 @@ AGREE = [
     ("param a number", _set("subtrees.lift.params.speed", 3), False),
     ("param without type", _set("subtrees.lift.params.speed", {"default": 0.1}), False),
     ("param unknown field", _set("subtrees.lift.params.speed.colour", "red"), False),
-    ("param unit", _set("subtrees.lift.params.speed.unit", "m"), True),
+    ("param unit", _set("subtrees.lift.params.speed.unit", "m/s"), True),
     ("param unit a number", _set("subtrees.lift.params.speed.unit", 3), False),
     ("param doc a list", _set("subtrees.lift.params.speed.doc", ["up"]), False),
     ("root not a node", _set("root", 3), False),

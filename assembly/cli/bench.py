@@ -18,6 +18,7 @@ BENCHES = {
     "demos": "assembly.bench.demos",
     "seeds": "assembly.bench.seeds",
     "robustness": "assembly.bench.robustness",
+    "validate": "assembly.bench.validate",
 }
 SWEEP = ("seeds", "modes", "trees", "jobs")  # the options of the benchmarks that sweep demo trees
 

@@ -26,6 +26,7 @@ if TYPE_CHECKING:  # the language and the run load on first use: `fvtree --help`
     from assembly.language.substitution import Rule
     from assembly.run.options import RunOptions
 
+GROOT2_DEFAULT_PORT = 1667  # BT.CPP's Groot2Publisher default
 RUN_EXIT = {"SUCCESS": 0, "FAULT": 3, "CRASHED": 4, "TASK_FAILED": 5}  # any other result: EXIT_FAILURE
 
 
@@ -45,8 +46,9 @@ def _add_world_options(r: argparse.ArgumentParser) -> None:
     """The cell and, when simulated, its noise, pace, perception and scene."""
     add_cell_option(r)
     r.add_argument("--seed", type=SEED, default=0, help="seed of the simulated world's noise")
-    r.add_argument("--speed", choices=("realtime", "max"), default="max",
-                   help="simulated time: as fast as possible (max) or paced to the wall clock")
+    r.add_argument("--speed", choices=("realtime", "max"), default=None,
+                   help="simulated time: as fast as possible (max, the default) or paced to the wall clock "
+                        "(realtime, the default with --groot2)")
     add_perception_option(r)
     r.add_argument("--scene", default=None, metavar="NAME",
                    help="simulate this scene instead of the tree's `cell.scene` (see `fvtree scenes`)")
@@ -72,6 +74,23 @@ def _add_output_options(r: argparse.ArgumentParser) -> None:
                         f"(pixel perception, real cameras); 0: none (default: {IMAGE_HZ:g})")
     r.add_argument("--view", action="store_true",
                    help="stream the run live to a web viewer on 127.0.0.1 (kept serving until Ctrl-C)")
+    r.add_argument("--groot2", nargs="?", type=groot2_port, const=GROOT2_DEFAULT_PORT, default=None, metavar="PORT",
+                   help="serve the run to Groot2 (BehaviorTree.CPP's monitor protocol over ZeroMQ) on PORT "
+                        f"and PORT+1 (default {GROOT2_DEFAULT_PORT}); needs pyzmq and msgpack")
+    r.add_argument("--groot2-address", default="127.0.0.1", metavar="ADDRESS",
+                   help="the address --groot2 listens on (default 127.0.0.1, this machine only; "
+                        "0.0.0.0: every interface)")
+
+
+def groot2_port(text: str) -> int:
+    """argparse type: a TCP port whose next port is one too."""
+    try:
+        port = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a port number, got {text!r}") from None
+    if not 1 <= port <= 65534:
+        raise argparse.ArgumentTypeError(f"must be 1..65534 (it and the next port are used), got {text}")
+    return port
 
 
 def _add_override_options(r: argparse.ArgumentParser) -> None:
@@ -122,7 +141,9 @@ def run_options(args: argparse.Namespace) -> RunOptions:
                        path(args.tls_cert), path(args.tls_key), args.link_lost_after, args.unsigned) if args.bridge else None
     return RunOptions(
         cell=args.cell, seed=args.seed, perception=args.perception, scene=args.scene,
-        realtime=args.speed == "realtime", max_time=args.max_time, estop_at=args.estop_at,
+        realtime=(args.speed or ("realtime" if args.groot2 else "max")) == "realtime", max_time=args.max_time,
+        estop_at=args.estop_at,
         runs_dir=Path(args.runs_dir), resume=args.resume, marks=dict(args.mark), record=not args.no_record,
         record_images=args.record_images, plots=not args.no_plots, link=link,
-        substitutions=tuple(_substitution_rules(args.substitute, args.substitute_file)))
+        substitutions=tuple(_substitution_rules(args.substitute, args.substitute_file)),
+        groot2=None if args.groot2 is None else (args.groot2_address, args.groot2))

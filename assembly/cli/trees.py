@@ -10,14 +10,19 @@ from assembly.cli.args import Subparsers
 from assembly.cli.exits import EXIT_USAGE, report
 from fvfiles.errors import FvtreeError
 
+DEFAULT_CELL = "sim"  # the cell a tree is validated for unless --cell names one: the one `fvtree run` uses
+
 
 def add_commands(sub: Subparsers) -> None:
     """`fvtree validate`, `show`, `skills`, `scenes` and `schema`."""
     v = sub.add_parser("validate", help="check tree, design (.json) or cell files without running or connecting")
-    v.add_argument("files", nargs="+", metavar="FILE")
-    v.add_argument("--cell", action="store_true",
-                   help="the files are cell files: check them whole (types, finite values, home inside the "
-                        "safety box) without touching a device")
+    v.add_argument("files", nargs="*", metavar="FILE",
+                   help="trees, designs (.json) and cell files (a mapping with `kind:`, checked whole: types, "
+                        "finite values, home inside the safety box, without touching a device)")
+    v.add_argument("--cell", metavar="CELL", default=None,
+                   help="check the trees' device params (gripper force and width, arm speeds, TCP force) against "
+                        f"this cell's ranges, and the cell file whole (default: {DEFAULT_CELL}, the cell `fvtree run` "
+                        "uses)")
     v.set_defaults(func=cmd_validate)
 
     s = sub.add_parser("show", help="print a tree with its nodes' kinds, params and statuses")
@@ -53,28 +58,59 @@ def _walk(spec):
         yield from _walk(child)
 
 
-def _validate_file(path: str, cell: bool) -> str:
-    """Check one input file whole, touching no device: a cell file (`cell`), a design model
-    (`.json`) or a tree; returns what it holds, or raises a located FvtreeError."""
-    if cell:
-        from drivers.cell_builders import validate
+def _is_cell_file(path: str) -> bool:
+    """Whether a YAML file is a cell file: a mapping with a `kind` and neither a tree's `version`
+    nor its `root` (a file that cannot be read is left to the tree reader to report)."""
+    from fvfiles.yaml_source import load_file
 
-        spec = validate(path)
-        return f"cell {spec['name']!r}, kind {spec['kind']}"
+    try:
+        doc = load_file(path)
+    except FvtreeError:
+        return False
+    return isinstance(doc, dict) and "kind" in doc and not {"version", "root"} & set(doc)
+
+
+def _validate_cell(name: str) -> str:
+    """Check a cell file whole, touching no device; what it holds, or a located FvtreeError."""
+    from drivers.cell_builders import validate
+
+    spec = validate(name)
+    return f"cell {spec['name']!r}, kind {spec['kind']}"
+
+
+def _validate_file(path: str, cell: str) -> str:
+    """Check one input file whole, touching no device: a cell file, a design model (`.json`) or a
+    tree, whose device params are checked against `cell`; returns what it holds, or raises a
+    located FvtreeError."""
     if Path(path).suffix == ".json":
         from assembly.design.model import DesignModel
 
         design = DesignModel.load(path)
         return f"design, {len(design.elements())} elements on {len(design.plates())} plates"
-    doc = _load(path)
-    return f"{doc.name}, {sum(1 for _ in _walk(doc.root))} nodes"
+    from assembly.errors import TreeErrors
+    from assembly.language.reader import load_tree
+
+    try:
+        doc = load_tree(path, cell=cell)
+    except TreeErrors:
+        if _is_cell_file(path):  # asked only of a file that is no tree: a tree is read once
+            return _validate_cell(path)
+        raise
+    return f"{doc.name}, {sum(1 for _ in _walk(doc.root))} nodes, for cell {cell}"
 
 
 def cmd_validate(args) -> int:
+    if not args.files and args.cell is None:
+        raise FvtreeError("nothing to validate", hint="give tree, design or cell files, or --cell CELL")
+    if args.cell is not None:
+        try:
+            print(f"{args.cell}: ok ({_validate_cell(args.cell)})")
+        except FvtreeError as exc:  # no tree can be checked against a cell that does not hold together
+            return report(exc)
     bad = 0
     for path in args.files:
         try:
-            what = _validate_file(path, args.cell)
+            what = _validate_file(path, args.cell or DEFAULT_CELL)
         except FvtreeError as exc:
             bad += 1
             report(exc)

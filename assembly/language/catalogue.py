@@ -25,7 +25,8 @@ def _default(p: Param):
 
 
 def describe_skills() -> dict[str, dict]:
-    """Every skill: package, summary, params (type, default, unit, range, description), keys."""
+    """Every skill: package, summary, params (type, default, unit, range, the device range of the cell it
+    must lie in, description), keys."""
     load_plugins()
     out = {}
     for name, cls in sorted(SKILLS.items()):
@@ -34,7 +35,7 @@ def describe_skills() -> dict[str, dict]:
             "summary": cls.SUMMARY or (cls.__doc__ or "").strip().splitlines()[0],
             "params": {k: {"type": p.type, "default": _default(p), "required": p.required, "unit": p.unit,
                            "min": p.min, "max": p.max, "choices": list(p.choices) if p.choices else None,
-                           "doc": p.doc} for k, p in cls.PARAMS.items()},
+                           "device": p.device or None, "doc": p.doc} for k, p in cls.PARAMS.items()},
             "reads": list(cls.READS),
             "writes": list(cls.WRITES),
         }
@@ -51,7 +52,8 @@ def skills_table() -> str:
                 rng = f" [{'' if p['min'] is None else p['min']}..{'' if p['max'] is None else p['max']}]"
             default = "required" if p["required"] else f"default {p['default']!r}"
             unit = f" {p['unit']}" if p["unit"] else ""
-            lines.append(f"    {pname} ({p['type']}{unit}{rng}, {default}): {p['doc']}")
+            device = f", within the cell's {p['device']}" if p["device"] else ""
+            lines.append(f"    {pname} ({p['type']}{unit}{rng}, {default}{device}): {p['doc']}")
         if d["reads"]:
             lines.append(f"    reads:  {', '.join(d['reads'])}")
         if d["writes"]:

@@ -18,7 +18,7 @@ from py_trees.common import ParallelPolicy, Status
 
 from assembly.language.validator import COMMON_FIELDS, NodeKind, NodeSpec, Scope, Validator, finite, short
 from assembly.nodes import composites, decorators
-from assembly.nodes.conditions import ALL_OPS, Condition
+from assembly.nodes.conditions import ALL_OPS, Condition, split_key
 from assembly.nodes.decorators import CellTimeout, Guard, StatusMap
 from assembly.nodes.for_each_element import ForEachElement
 from behaviours.skill_kit.base import Param
@@ -154,8 +154,10 @@ def _skill(validator, spec, node, scope) -> None:
                         did_you_mean(key, cls.PARAMS) or f"known: {', '.join(cls.PARAMS) or 'none'}")
     if unknown:
         return
+    validator.units(spec, node, scope, cls.PARAMS)
     try:
         spec.args["params"] = check_model(cls, cls.resolve_params(params), params, spec.file)
+        validator.device_ranges(spec, node, cls.PARAMS, spec.args["params"])
     except ModelError as exc:
         validator.error(node, f"param 'model': {exc.message}", spec.path, "params")
     except ValueError as exc:
@@ -177,6 +179,7 @@ def _subtree(validator, spec, node, scope) -> None:
     given = validator.params(spec, node, scope)
     values = {}
     before = len(validator.errors)
+    validator.units(spec, node, scope, definition.params)
     for key in given:
         if key not in definition.params:
             validator.error(node, f"unknown param {key!r} for subtree {ref!r}", spec.path, "params",
@@ -221,6 +224,12 @@ def _build_guard(spec: NodeSpec, kids: list[Behaviour]) -> Behaviour:
 # ---- labels for `fvtree show` ---------------------------------------------------------------------
 def _label_with(field: str) -> Callable[[NodeSpec], str]:
     return lambda spec: f"[{spec.kind} {field}={spec.args[field]}]"
+
+
+def _condition_reads(c: dict) -> tuple[str, ...]:
+    """The key a condition reads, which something ticking before it must write (dataflow): none for
+    `exists`, which asks whether it has been written."""
+    return () if c["op"] == "exists" else (split_key(str(c["key"]))[0],)
 
 
 def _label_condition(c: dict) -> str:
@@ -330,7 +339,7 @@ NODE_KINDS: dict[str, NodeKind] = {
         doc="ticks the child while a condition holds; halts it when the condition turns false",
         fields={"while": {"$ref": "#/$defs/condition"}}, check=_guard, build=_build_guard,
         label=lambda spec: f"[guard while {_label_condition(spec.args['while'])}]",
-        substitutes=frozenset({"while"})),
+        substitutes=frozenset({"while"}), keys=lambda spec: (_condition_reads(spec.args["while"]), ())),
     "for_each_element": NodeKind(
         doc="runs the child once per unplaced design element, in build order, publishing it on /task/element",
         fields={"child": NODE, "elements": {"type": "array", "items": STRING}}, required=frozenset({"child"}),
@@ -340,7 +349,7 @@ NODE_KINDS: dict[str, NodeKind] = {
         doc="compares a blackboard value, `key op value`, e.g. `key: /fv/left.slip`",
         fields=CONDITION_FIELDS, required=frozenset({"key", "op"}), check=_condition,
         label=lambda spec: f"[condition {_label_condition(spec.args)}]",
-        substitutes=frozenset({"key", "value"}),
+        substitutes=frozenset({"key", "value"}), keys=lambda spec: (_condition_reads(spec.args), ()),
         build=lambda spec, kids: Condition(spec.name, spec.args["key"], spec.args["op"], spec.args["value"])),
     "skill": NodeKind(
         doc="a tactile skill; its params are checked against the skill's declaration",

@@ -73,6 +73,9 @@ def add_skills(found: Iterable[EntryPoint]) -> list[str]:
 
 def add_scenes(found: Iterable[EntryPoint]) -> list[str]:
     """Add the scenes the entry points name to SCENES; returns their names."""
+    found = list(found)
+    if not found:  # the simulators load only when a plug-in adds a scene (not for `fvtree validate`)
+        return []
     from drivers.sim.scenes import SCENE_PACKAGES, SCENES  # the simulators are large: imported when needed
 
     names = []
@@ -89,6 +92,7 @@ def load_plugins() -> None:
     """Load every installed plug-in's skills and scenes, once."""
     global _loaded
     if not _loaded:
-        add_skills(entry_points(group=SKILL_GROUP))
-        add_scenes(entry_points(group=SCENE_GROUP))
+        found = entry_points()  # one scan of the installed packages for both groups
+        add_skills(found.select(group=SKILL_GROUP))
+        add_scenes(found.select(group=SCENE_GROUP))
         _loaded = True

@@ -14,8 +14,9 @@ from assembly.language.dataflow import dataflow_errors
 from assembly.language.fields import CELL_FIELDS, TOP_FIELDS, Field, required
 from assembly.language.kinds import NODE_KINDS
 from assembly.language.plugins import load_plugins
-from assembly.language.validator import NodeSpec, Scope, SubtreeDef, Validator, subtree_params
+from assembly.language.validator import CellRanges, NodeSpec, Scope, SubtreeDef, Validator, subtree_params
 from behaviours.skill_kit.keys import PERCEPTION_KEYS
+from drivers.device_ranges import device_ranges
 from fvfiles.errors import FvtreeError, did_you_mean, did_you_mean_field, field_name
 from fvfiles.schema_check import schema_problem
 from fvfiles.yaml_source import Located, LocatedList, load_file, load_text
@@ -185,11 +186,26 @@ def _design(doc: Located, file: str, errors: list[TreeError]) -> DesignModel | N
         return None
 
 
+def _scene_file(design: DesignModel, errors: list[TreeError]) -> None:
+    """The scene file next to the design (`<design>.scene.yaml`: the plates' loads in simulation),
+    checked against the design's plates now rather than when the simulated scene is built."""
+    if design.path is None:
+        return
+    from drivers.sim.scenes.scene_file import plate_loads, scene_file_of
+
+    spans = {pid: float(plate["span"]) for pid, plate in design.plates().items()}
+    try:
+        plate_loads(scene_file_of(design.path), spans)
+    except FvtreeError as exc:
+        errors.append(TreeError(f"scene file: {exc.message}", exc.file, exc.line, exc.field, exc.hint))
+
+
 def load_tree(path: str | Path | None = None, text: str | None = None, name: str = "<tree>",
-              dataflow: bool = True) -> TreeDocument:
+              dataflow: bool = True, cell: str | None = None) -> TreeDocument:
     """Parse and validate a tree file (or `text`); raises TreeErrors listing every problem.
     `dataflow` also refuses a node that reads a blackboard key nothing ticking before it writes
-    (off for tests that put the keys on the blackboard by hand)."""
+    (off for tests that put the keys on the blackboard by hand). `cell` (a cell file or packaged
+    cell's name) also checks the params bound to a device range against that cell's devices."""
     load_plugins()
     file = str(path) if path is not None else name
     try:
@@ -201,12 +217,15 @@ def load_tree(path: str | Path | None = None, text: str | None = None, name: str
         raise TreeErrors(errors)
     tick_hz, scene = _cell_settings(doc, file, errors)
     design = _design(doc, file, errors)
+    if design is not None:
+        _scene_file(design, errors)
     subtrees: dict[str, SubtreeDef] = {}
     _collect_subtrees(doc, file, subtrees, errors, (str(Path(file).resolve()),), include_roots(file))
     root = None
     if "root" in doc:
         validator = Validator(NODE_KINDS, subtrees, has_design="design" in doc,
-                              element_ids=None if design is None else design.elements())
+                              element_ids=None if design is None else design.elements(),
+                              cell=None if cell is None else CellRanges(cell, device_ranges(cell)))
         root = validator.node(doc["root"], "", Scope(), (file, doc.line_of("root")))
         errors.extend(validator.errors)
         if dataflow and not validator.errors and root is not None:

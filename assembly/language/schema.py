@@ -4,9 +4,10 @@ node kinds, the skill declarations and the scenes table (plug-ins included) so e
 
 from __future__ import annotations
 
+from assembly.language.blackboard import blackboard_schema, field_paths
 from assembly.language.catalogue import describe_scenes
 from assembly.language.fields import TOP_FIELDS, object_schema
-from assembly.language.kinds import NODE_KINDS, SCHEMA_DEFS
+from assembly.language.kinds import CONDITION_FIELDS, NODE_KINDS, SCHEMA_DEFS
 from assembly.language.plugins import load_plugins
 from behaviours.skill_kit.registry import PROJECT, SKILL_PACKAGES
 
@@ -28,5 +29,13 @@ def tree_schema() -> dict:
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "title": "fvtree behaviour tree",
         **top,
-        "$defs": {"node": {"oneOf": variants}, **SCHEMA_DEFS},
+        "$defs": {"node": {"oneOf": variants}, **condition_defs(), "blackboard": blackboard_schema()},
     }
+
+
+def condition_defs() -> dict:
+    """The condition's schema, its `key` offering every blackboard key and field path (editors
+    complete from `examples`; an index such as `[1]` may follow a list)."""
+    key = {**CONDITION_FIELDS["key"], "examples": field_paths(),
+           "description": "a blackboard key, then fields and indices: see $defs.blackboard"}
+    return {"condition": {**SCHEMA_DEFS["condition"], "properties": {**CONDITION_FIELDS, "key": key}}}

@@ -16,13 +16,20 @@ from typing import Any
 from py_trees.behaviour import Behaviour
 
 from assembly.errors import TreeError
+from assembly.language.blackboard import key_problem
 from assembly.nodes.conditions import ALL_OPS, split_key
 from behaviours.skill_kit import keys as bbkeys
-from behaviours.skill_kit.base import REQUIRED, Param
+from behaviours.skill_kit.base import DEVICE_RANGES, REQUIRED, Param
 from behaviours.skill_kit.registry import SKILLS
+from drivers.device_ranges import DeviceRange
 from fvfiles.errors import did_you_mean
 from fvfiles.yaml_source import Located, LocatedList
 
+# Units a subtree param may be declared in where a param takes another: the factor to the other's
+# (for the hint of a mismatch; values are never converted).
+UNIT_FACTORS = {("ms", "s"): 1e-3, ("s", "ms"): 1e3, ("mm", "m"): 1e-3, ("m", "mm"): 1e3, ("cm", "m"): 1e-2,
+                ("mm/s", "m/s"): 1e-3, ("m/s", "mm/s"): 1e3, ("deg", "rad"): math.pi / 180,
+                ("rad", "deg"): 180 / math.pi, ("deg/s", "rad/s"): math.pi / 180, ("kN", "N"): 1e3}
 MAX_NODES = 10_000  # nodes of a tree once its subtrees are expanded (subtrees can multiply them)
 MAX_DEPTH = 200  # levels of nodes
 PARAM_TYPES = ("float", "int", "bool", "str", "vector")
@@ -54,6 +61,14 @@ class SubtreeDef:
     root: Located
     file: str
     line: int
+
+
+@dataclass(frozen=True)
+class CellRanges:
+    """The cell a tree is validated for: its name and its devices' ranges (`drivers.device_ranges`)."""
+
+    name: str
+    ranges: Mapping[str, DeviceRange]
 
 
 @dataclass(frozen=True)
@@ -135,8 +150,9 @@ class Validator:
     """
 
     def __init__(self, kinds: Mapping[str, NodeKind], subtrees: dict[str, SubtreeDef], has_design: bool,
-                 element_ids: Iterable[str] | None = None):
+                 element_ids: Iterable[str] | None = None, cell: CellRanges | None = None):
         self.kinds = kinds
+        self.cell = cell  # the device ranges skill params are checked against (None: not checked)
         self.subtrees = subtrees
         self.has_design = has_design
         self.element_ids = None if element_ids is None else frozenset(element_ids)  # None: not known
@@ -268,10 +284,12 @@ class Validator:
         key, op = self.substitute(node.get("key"), scope, spec, node), node.get("op")
         value = self.substitute(node.get("value"), scope, spec, node)
         try:
-            base, _ = split_key(str(key))
+            base, parts = split_key(str(key))
             if base not in self._keys:
                 self.error(node, f"unknown blackboard key {base!r}", spec.path, "key",
                            did_you_mean(base, self._keys))
+            elif problem := key_problem(base, parts):
+                self.error(node, problem[0], spec.path, "key", problem[1])
         except ValueError as exc:
             self.error(node, str(exc), spec.path, "key")
         if op not in ALL_OPS:
@@ -282,6 +300,45 @@ class Validator:
         if not finite(value):
             self.error(node, f"'value' must hold finite numbers only, got {short(value)}", spec.path, "value")
         return {"key": key, "op": op, "value": value}
+
+    def units(self, spec: NodeSpec, node: Located, scope: Scope, declared: Mapping[str, Param]) -> None:
+        """Each `$param` given to a param declared with a unit carries the same unit: a subtree param
+        declared `unit: ms` passed into a param in s is refused, never converted (the value would
+        mean another thing in each place), with the value in the unit the param takes."""
+        given, outer = node.get("params"), self.subtrees.get(scope.subtrees[-1]) if scope.subtrees else None
+        if not isinstance(given, Located) or outer is None:
+            return
+        for key, value in given.items():
+            if not (isinstance(value, str) and value.startswith("$")):
+                continue
+            name = value[1:]
+            source, target = outer.params.get(name), declared.get(key)
+            if source is None or target is None or not source.unit or not target.unit or source.unit == target.unit:
+                continue
+            hint = f"declare ${name} with unit {target.unit!r}"
+            factor = UNIT_FACTORS.get((source.unit, target.unit))
+            number = scope.params.get(name)
+            if factor is not None and isinstance(number, (int, float)) and not isinstance(number, bool):
+                hint += f" and give it {number * factor:g} ({number:g} {source.unit} = {number * factor:g} {target.unit})"
+            self.error(given, f"param {key!r} takes {target.unit}, but ${name} is declared in {source.unit} "
+                       f"by subtree {outer.name!r}", spec.path, key, hint)
+
+    def device_ranges(self, spec: NodeSpec, node: Located, declared: Mapping[str, Param], values: dict) -> None:
+        """Each param bound to a device range (`Param.device`) within the cell's range, at its own line."""
+        if self.cell is None:
+            return
+        given = node.get("params")
+        for key, param in declared.items():
+            value, limit = values.get(key), self.cell.ranges.get(param.device)
+            if limit is None or isinstance(value, bool) or not isinstance(value, (int, float)) or limit.contains(value):
+                continue
+            where = given if isinstance(given, Located) and key in given else node
+            what, consequence = DEVICE_RANGES[param.device]
+            self.error(where, f"param {key!r} = {value:g} {param.unit} is outside the {what} range of cell "
+                       f"{self.cell.name}, [{limit.low:g}, {limit.high:g}] {limit.unit}, from {limit.source}",
+                       spec.path, key if where is given else "params",
+                       f"{consequence}; keep it within {limit.high:g} {limit.unit}, or validate for the cell that "
+                       "runs the tree (--cell CELL)")
 
     def params(self, spec: NodeSpec, node: Located, scope: Scope) -> dict:
         """The node's `params` mapping with `$params` filled in (unchecked: the kind checks it)."""

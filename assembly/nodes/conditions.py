@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import operator
 import re
+import reprlib
 from collections.abc import Callable
 from typing import Any
 
@@ -55,18 +56,37 @@ class Condition(py_trees.behaviour.Behaviour):
         self.bb.register_key(key=self.key, access=py_trees.common.Access.READ)
 
     def holds(self) -> bool:
+        return self.evaluate()[0]
+
+    def evaluate(self) -> tuple[bool, str]:
+        """(whether `key op value` holds this tick, why: the key, the value read and the comparison),
+        e.g. (False, "/fv/left.slip = 0.31, not lt 0.2")."""
         try:
             current = resolve(self.bb.get(self.key), self.parts)
-        except (KeyError, AttributeError, IndexError, TypeError):
-            return False
+        except KeyError:
+            return False, f"{self.expr}: {self.key} is not on the blackboard"
+        except (AttributeError, IndexError, TypeError) as exc:
+            return False, f"{self.expr}: cannot be read ({type(exc).__name__}: {exc})"
         if self.op == "exists":
-            return current is not None
+            ok = current is not None
+            return ok, f"{self.expr} = {_short(current)}" + ("" if ok else ", not set")
         try:
-            return bool(OPS[self.op](current, self.value))
-        except TypeError:
-            return False
+            ok = bool(OPS[self.op](current, self.value))
+        except (TypeError, ValueError) as exc:  # ValueError: an array's truth, e.g. force lt 3
+            return False, f"{self.expr} = {_short(current)} cannot be compared: {self.op} {self.value!r} ({exc})"
+        return ok, f"{self.expr} = {_short(current)}, {'' if ok else 'not '}{self.op} {self.value!r}"
 
     def update(self) -> Status:
-        ok = self.holds()
-        self.feedback_message = f"{self.expr} {self.op} {self.value!r}: {ok}"
+        ok, self.feedback_message = self.evaluate()
         return Status.SUCCESS if ok else Status.FAILURE
+
+
+def _short(value: Any) -> str:
+    """A value read from the blackboard, cut short enough for a log line (floats to 6 decimals)."""
+    if isinstance(value, float):
+        return repr(round(float(value), 6))
+    return _SHORT.repr(value)
+
+
+_SHORT = reprlib.Repr()
+_SHORT.maxstring = _SHORT.maxother = 60

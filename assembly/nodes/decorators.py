@@ -87,10 +87,17 @@ class CellTimeout(DirectDecorator, py_trees.decorators.Decorator):
 
 
 class Guard(py_trees.decorators.EternalGuard):
-    """Ticks the child only while a condition holds; halts it and fails the tick it stops."""
+    """Ticks the child only while a condition holds; halts it and fails the tick it stops, with the
+    condition's reason as its feedback (the key, its value and the comparison)."""
 
     def __init__(self, name: str, child: py_trees.behaviour.Behaviour, condition: Condition):
-        super().__init__(name=name, child=child, condition=condition.holds)
+        self.check = condition
+        super().__init__(name=name, child=child, condition=self._holds)
+
+    def _holds(self) -> bool:
+        ok, reason = self.check.evaluate()
+        self.feedback_message = "" if ok else f"guard condition failed: {reason}"
+        return ok
 
     def update(self) -> Status:
         return self.decorated.status

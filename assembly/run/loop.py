@@ -4,8 +4,10 @@ Every tick: the stop policy latches e-stop inputs, the perception stage publishe
 /fv/left, /fv/right, /robot/*, /gripper/* and /task/estop, and the cell supervisor (when the run
 is supervised) trips arm and gripper on any fault (pre-tick handlers); the tree ticks once; the
 arm's watchdog is kicked, then the tip, the load profiles, the transition log and the progress
-line are updated (post-tick handlers); the cell advances one period of its clock (simulated time,
-or a sleep to the next period on a real cell). After the tick the stop policy may halt the run.
+line are updated and a live monitor (`--groot2`) publishes the statuses (post-tick handlers); the
+cell advances one period of its clock (simulated time, or a sleep to the next period on a real
+cell). After the tick the stop policy may halt the run. A monitor's breakpoint may pause the tree
+inside a tick: the cell does not step, and the stop policy's checks go on meanwhile (`Runner._hold`).
 
 The loop is fail-safe: an exception anywhere in a tick (a skill, a handler, the cell) halts the
 tree, stops arm and gripper and ends the run with status CRASHED, naming the node that raised;
@@ -72,13 +74,39 @@ class Recorder(Protocol):
     def close(self) -> None: ...
 
 
+class Monitor(Protocol):
+    """A live monitor of the run (`assembly.interop.groot2`, `fvtree run --groot2`): a post-tick
+    handler publishing the statuses, which may pause the tree inside a tick at a breakpoint. While
+    paused it calls the `hold` it was bound to every few milliseconds with the path of the node it
+    waits at; `hold` raises to stop the run."""
+
+    def __call__(self, tree: py_trees.trees.BehaviourTree) -> None: ...
+
+    def bind(self, hold: Callable[[str], None]) -> None: ...
+
+    @property
+    def paused_s(self) -> float: ...
+
+    def close(self) -> None: ...
+
+
+class StoppedWhilePaused(Exception):
+    """A stop (an e-stop, a fault) that came while a monitor held the tree paused mid-tick."""
+
+    def __init__(self, stop: Stop):
+        super().__init__(stop.message)
+        self.stop = stop
+
+
 class Runner:
     """Runs a built tree on a cell, tick by tick; call `setup()` before the first tick.
 
     With a run directory it writes the transition log there and stops when an `ESTOP` file
     appears in it; `progress` receives a line each time the tree's tip moves. With `supervision`
     the cell supervisor watches the cell every tick (`fvtree run` always supervises; the test
-    harness, whose perception is scripted, does not).
+    harness, whose perception is scripted, does not). A `monitor` hears of every tick last, and
+    may pause the tree inside a tick (a breakpoint): the cell does not step meanwhile, and `hold`
+    keeps checking the e-stop inputs and the supervisor, stopping the run as after a tick.
     """
 
     def __init__(self, tree: BuiltTree, cell: Cell, run_dir: Path | None = None,
@@ -87,7 +115,7 @@ class Runner:
                  sense: PerceptionSource | None = None,
                  estop_at: float | None = None, max_time: float = 3600.0,
                  supervision: Supervision | None = None, recorder: Recorder | None = None,
-                 storage: RunStorage | None = None):
+                 storage: RunStorage | None = None, monitor: Monitor | None = None):
         self.tree = tree
         self.cell = cell
         self.bridge = bridge
@@ -109,9 +137,13 @@ class Runner:
         if self.supervisor is not None:
             self.behaviour_tree.add_pre_tick_handler(self.supervisor)
             self.stop_policy.checks.insert(0, self.supervisor.check)
-        for handler in (self._kick_watchdog, self.tip, self.load_profiles, self.log, self.recorder, self.progress):
+        self.monitor = monitor
+        for handler in (self._kick_watchdog, self.tip, self.load_profiles, self.log, self.recorder, self.progress,
+                        monitor):
             if handler is not None:
                 self.behaviour_tree.add_post_tick_handler(handler)
+        if monitor is not None:
+            monitor.bind(self._hold)
         self._set_up = False
 
     def setup(self) -> None:
@@ -136,6 +168,17 @@ class Runner:
     def _kick_watchdog(self, tree: py_trees.trees.BehaviourTree) -> None:
         self.cell.arm.kick()
 
+    def _hold(self, where: str) -> None:
+        """While a monitor pauses the tree mid-tick at the node `where` (the cell does not step): the
+        e-stop inputs and the supervisor are checked as before a tick, and a stop due ends the run."""
+        self.tip.path = where  # where the tree is: what a stop now interrupts
+        self.stop_policy.before_tick(self.behaviour_tree)
+        if self.supervisor is not None:
+            self.supervisor(self.behaviour_tree)
+        stop = self.stop_policy.check()
+        if stop is not None:
+            raise StoppedWhilePaused(stop)
+
     # ---- the loop --------------------------------------------------------------------------
     def run(self) -> RunResult:
         """Tick until the root succeeds or fails, or the stop policy or Ctrl-C stops the run."""
@@ -154,6 +197,8 @@ class Runner:
                     self._pace(start)
         except KeyboardInterrupt as interrupt:
             return self._stopped(self.stop_policy.interrupted(interrupt), start)
+        except StoppedWhilePaused as paused:
+            return self._stopped(paused.stop, start)
         except RecordNotWritten as exc:  # the record of what stands is not kept: stop the cell
             where = self._raiser(exc) or self.tip.path
             return self._stopped(Stop("FAULT", f"{exc} (in {where})", where), start)
@@ -170,7 +215,8 @@ class Runner:
         return self._result(status.name, start, where, message)
 
     def _pace(self, start: float) -> None:
-        ahead = self.cell.clock.now() - (time.perf_counter() - start)
+        paused = self.monitor.paused_s if self.monitor is not None else 0.0
+        ahead = self.cell.clock.now() - (time.perf_counter() - start - paused)
         if ahead > 0:
             time.sleep(ahead)
 
@@ -181,6 +227,8 @@ class Runner:
         self.stop_policy.halt(self.behaviour_tree.root, where or self.tip.path, event, **data)
         if self.log:
             self.log.record(self.ticks)
+        if self.monitor is not None:
+            self.monitor(self.behaviour_tree)
         if self.recorder:
             if self.bridge is None:  # no event log for the recorder to read: tell it
                 self.recorder.event(event, where=where or self.tip.path, **data)

@@ -61,3 +61,4 @@ class RunOptions:
     supervised: bool = True
     link: LinkOptions | None = None
     substitutions: tuple[Rule, ...] = ()
+    groot2: tuple[str, int] | None = None  # (address, port) to serve the run to Groot2 on (`--groot2`)

@@ -34,7 +34,7 @@ from assembly.outcome.result import RunResult
 from assembly.outcome.summary import SUMMARY_FILE, Summary, format_summary, summarize
 from assembly.outcome.verdict import TASK_FAILED, judge, tolerances_for
 from assembly.run.event_log import Box, cell_box, check_run_records, drop_torn_tail
-from assembly.run.loop import Runner
+from assembly.run.loop import Monitor, Runner
 from assembly.run.options import MARKS, RunOptions
 from assembly.run.perception_stage import clear_blackboard
 from assembly.run.progress import end_stderr_progress, stderr_progress
@@ -210,12 +210,26 @@ class Run:
         if given is not None:
             def sense() -> Mapping[str, Any]:
                 return given(cell)
+        monitor = self._monitor(tree, cell)
         runner = Runner(tree, cell, self.run_dir, self.bridge, realtime=o.realtime,
                         progress=None if o.quiet else stderr_progress, sense=sense, estop_at=o.estop_at,
-                        max_time=o.max_time, supervision=supervision, recorder=recorder, storage=self.storage)
+                        max_time=o.max_time, supervision=supervision, recorder=recorder, storage=self.storage,
+                        monitor=monitor)
         if self.bridge is not None:
             self.bridge.event("start", tree=str(self.doc.path), cell=o.cell, seed=o.seed, resume=bool(o.resume))
-        return _Parts(cell, tree, recorder, runner)
+        return _Parts(cell, tree, recorder, runner, monitor)
+
+    def _monitor(self, tree: BuiltTree, cell: Cell) -> Monitor | None:
+        """The Groot2 server the options ask for; breakpoints only where the world waits for the tree."""
+        if self.options.groot2 is None:
+            return None
+        from assembly.interop.groot2 import start_monitor  # pyzmq and msgpack: only with --groot2
+
+        host, port = self.options.groot2
+        refused = None if cell.simulated else (
+            "breakpoints are refused on a real or emulated cell: its motions go on while the tree waits; "
+            "use them on the simulated cell")
+        return start_monitor(self.doc, tree.nodes, cell.clock.now, port, host, refused)
 
     # ---- running ---------------------------------------------------------------------------
     @property
@@ -323,8 +337,10 @@ class Run:
 
     def close(self) -> None:
         """Close the cell and, for a run left unfinished, the design bridge's links and the recorder;
-        then free the run directory for another session."""
+        then stop the Groot2 server and free the run directory for another session."""
         try:
+            if self._parts is not None and self._parts.monitor is not None:
+                self._parts.monitor.close()
             self.close_cell()
             if not self._finished:
                 self._finished = True
@@ -353,6 +369,7 @@ class _Parts:
     tree: BuiltTree
     recorder: GuardedRecorder | None
     runner: Runner
+    monitor: Monitor | None = None
 
 
 @sigterm_raises_terminated()  # from the start: SIGTERM while the cell is set up closes it like Ctrl-C

@@ -51,6 +51,17 @@ _TOUCH_KEYS = (keys.FV_LEFT, keys.FV_RIGHT)
 _TYPES: dict[str, tuple[type[Any], ...]] = {"float": (int, float), "int": (int,), "bool": (bool,), "str": (str,)}
 
 
+# The ranges of a cell's devices a skill param can be bound to (`Param.device`): the cell's arm and gripper
+# refuse (or cap) a command beyond them, so `fvtree validate --cell CELL` checks such params against the cell.
+DEVICE_RANGES: dict[str, tuple[str, str]] = {  # name -> (what it bounds, what the cell does beyond it)
+    "gripper_force": ("gripper force", "the gripper refuses a stronger grip: a FAULT"),
+    "gripper_width": ("gripper opening", "the gripper refuses a wider one: a FAULT"),
+    "arm_speed": ("TCP speed", "the arm caps a faster move at it"),
+    "arm_angular_speed": ("TCP turn rate", "the arm refuses a faster turn: a FAULT"),
+    "arm_force": ("force at the TCP", "the arm stops above it: a FAULT"),
+}
+
+
 @dataclass(frozen=True)
 class Param:
     """Declaration of one skill parameter."""
@@ -63,6 +74,11 @@ class Param:
     max: float | None = None
     choices: tuple | None = None
     length: int | None = None  # for vectors: number of floats
+    device: str = ""  # the device range of DEVICE_RANGES the value must lie in on the cell that runs it
+
+    def __post_init__(self) -> None:
+        if self.device and self.device not in DEVICE_RANGES:
+            raise ValueError(f"device range {self.device!r} is not one of {', '.join(DEVICE_RANGES)}")
 
     @property
     def required(self) -> bool:

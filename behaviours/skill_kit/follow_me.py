@@ -45,6 +45,10 @@ class TrackingSkill(ProgramSkill):
         """TCP velocity (m/s) along tool [x, y, z] for this tick's tactile states."""
         raise NotImplementedError
 
+    def blind(self, left: TactileState, right: TactileState) -> str:
+        """Why the skill cannot follow any more although the object is still held ("" while it can)."""
+        return ""
+
     def program(self):
         arm = self.cell.arm
         mask = np.array([a in self.p.axes for a in AXES], dtype=float)
@@ -62,6 +66,10 @@ class TrackingSkill(ProgramSkill):
             fault = self.arm_fault()
             if fault:
                 return self.fail(f"arm fault: {fault}")
+            blind = self.blind(left, right)
+            if blind:
+                arm.stop()
+                return self.fail(blind)
             v_tool = self.velocity(left, right) * mask
             arm.speed_linear(np.r_[rotation(self.pose()) @ v_tool, 0.0, 0.0, 0.0])
             self.feedback_message = f"following at {np.round(v_tool * 1000, 1).tolist()} mm/s (tool)"

@@ -2,13 +2,24 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+if TYPE_CHECKING:  # scipy loads with the first pose turned, not with every import of the skill kit
+    from scipy.spatial.transform import Rotation
+
+
+def _rotation(rotvec) -> Rotation:
+    """scipy's Rotation of a rotation vector."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_rotvec(rotvec)
 
 
 def rotation(pose) -> np.ndarray:
     """3x3 rotation matrix of a pose; column i is tool axis i in the base frame."""
-    return Rotation.from_rotvec(np.asarray(pose, float)[3:]).as_matrix()
+    return _rotation(np.asarray(pose, float)[3:]).as_matrix()
 
 
 def translated(pose, offset) -> np.ndarray:
@@ -22,13 +33,13 @@ def rotated_about_tool(pose, axis: int, angle: float) -> np.ndarray:
     """The pose turned by `angle` rad about its own tool axis `axis` (0 x, 1 y, 2 z)."""
     rotvec = np.zeros(3)
     rotvec[axis] = angle
-    turned = Rotation.from_rotvec(np.asarray(pose, float)[3:]) * Rotation.from_rotvec(rotvec)
+    turned = _rotation(np.asarray(pose, float)[3:]) * _rotation(rotvec)
     return np.concatenate([np.asarray(pose, float)[:3], turned.as_rotvec()])
 
 
 def angle_between(pose_a, pose_b) -> float:
     """Rotation angle (rad) between the orientations of two poses."""
-    rel = Rotation.from_rotvec(np.asarray(pose_a, float)[3:]).inv() * Rotation.from_rotvec(
+    rel = _rotation(np.asarray(pose_a, float)[3:]).inv() * _rotation(
         np.asarray(pose_b, float)[3:])
     return float(rel.magnitude())
 
@@ -37,5 +48,5 @@ def top_down_grasp(element_pose) -> np.ndarray:
     """TCP pose at an element's centre with the tool pointing down and the fingers closing
     across the element's width (tool = element frame turned half a turn about its x axis)."""
     p = np.asarray(element_pose, float)
-    turned = Rotation.from_rotvec(p[3:]) * Rotation.from_rotvec([np.pi, 0.0, 0.0])
+    turned = _rotation(p[3:]) * _rotation([np.pi, 0.0, 0.0])
     return np.concatenate([p[:3], turned.as_rotvec()])

@@ -8,15 +8,12 @@ image x runs along tool x (mirrored on the left finger), image y along tool z.
 
 from __future__ import annotations
 
-import math
 import statistics
 from collections import deque
 
 import numpy as np
-from numba import njit
 
 from perception.state import ObjectInfo, TactileState
-from perception.sums import pairwise_sum
 
 
 def hand_force(left: TactileState, right: TactileState) -> np.ndarray:
@@ -45,7 +42,9 @@ def slip_beyond_marker_flow(now: TactileState, before: TactileState, gain: float
     a, b = now.markers, before.markers
     if not now.obj.present or a.position.shape != b.position.shape or not len(a.valid) == len(b.valid) == len(a):
         return now.slip
-    tracked, total = _tracked_motion(a.position, b.position, a.valid, b.valid)
+    from behaviours.skill_kit.marker_motion import tracked_motion  # numba: loaded by a run, not by `fvtree validate`
+
+    tracked, total = tracked_motion(a.position, b.position, a.valid, b.valid)
     if not tracked:
         return now.slip
     return max(0.0, now.slip - gain * now.obj.area * min(total / tracked, saturation))
@@ -54,23 +53,10 @@ def slip_beyond_marker_flow(now: TactileState, before: TactileState, gain: float
 def warm_up() -> None:
     """Load the compiled marker motion now (skills that use it call this when set up; see
     `perception.wrench.warm_up`)."""
+    from behaviours.skill_kit.marker_motion import tracked_motion
+
     position, valid = np.zeros((1, 2)), np.ones(1, bool)
-    _tracked_motion(position, position, valid, valid)
-
-
-@njit(cache=True, nogil=True)
-def _tracked_motion(position, before, valid, was_valid):  # pragma: no cover - compiled
-    """(markers tracked in both states, the sum of their distances moved), summed in numpy's order
-    over the tracked ones: a load scan asks twice a tick, and numpy's eight small-array calls cost
-    several times the loop."""
-    distances = np.empty(len(valid))
-    tracked = 0
-    for i in range(len(valid)):
-        if valid[i] and was_valid[i]:
-            dx, dy = position[i, 0] - before[i, 0], position[i, 1] - before[i, 1]
-            distances[tracked] = math.sqrt(dx * dx + dy * dy)
-            tracked += 1
-    return tracked, pairwise_sum(distances, 0, tracked)
+    tracked_motion(position, position, valid, valid)
 
 
 class SteadyAngle:

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from behaviours.skill_kit.base import Skill
-from perception.learning.models import ModelError, TrainedModel, load_model
+from perception.learning.models import ModelError, TrainedModel, check_model_file, load_model
 
 PROJECT_ROOT = Path(__file__).resolve().parents[2]
 
@@ -26,12 +26,12 @@ def resolve_model_path(path: str, base: Path) -> Path:
 def check_model(skill: type, params: dict[str, Any], given: dict[str, Any], tree_file: str) -> dict[str, Any]:
     """The resolved params of a skill node with its model path made absolute (a path the tree
     gave: from the tree file's directory; the skill's default: from the project root), after
-    loading the model once to check it; ModelError otherwise. Skills without a model: `params`."""
+    checking the model file as loading it would (without scikit-learn); ModelError otherwise. Skills without a model: `params`."""
     if not issubclass(skill, UsesModel):
         return params
     base = Path(tree_file).resolve().parent if "model" in given else PROJECT_ROOT
     path = resolve_model_path(params["model"], base)
-    load_model(path, skill.MODEL_KIND)
+    check_model_file(path, skill.MODEL_KIND)
     return {**params, "model": str(path)}
 
 

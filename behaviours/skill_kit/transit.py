@@ -14,7 +14,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+from behaviours.skill_kit.geometry import rotation
 
 EPS = 1e-9  # m: a point this close to a footprint's edge is on it, not in it
 
@@ -74,7 +75,7 @@ def plate_box(pid: str, plate: dict) -> Box:
 def element_box(eid: str, pose, size) -> Box:
     """An element of `size` [length, width, depth] (length along its own x) at centre `pose`."""
     p = np.asarray(pose, float)
-    half = np.abs(Rotation.from_rotvec(p[3:]).as_matrix()) @ (np.asarray(size, float) / 2.0)
+    half = np.abs(rotation(p)) @ (np.asarray(size, float) / 2.0)
     lo, hi = p[:3] - half, p[:3] + half
     return Box(eid, (lo[0], lo[1]), (hi[0], hi[1]), lo[2], hi[2])
 

@@ -18,6 +18,7 @@ from drivers.safe_gripper import SafeGripper
 from drivers.safety import SafeArm, SafetyLimits
 from drivers.sim.devices.arm import KinematicArm
 from drivers.sim.devices.gripper import SimGripper
+from drivers.sim.models.appearance import Look, look_from
 from drivers.sim.models.force_sensor import ForceSensedArm, ForceSensorConfig
 from drivers.sim.scenes import build_world, cell_profile, randomise, world_settings
 
@@ -45,6 +46,7 @@ def build_sim_cell(path: Path, data: dict, request: CellRequest) -> Cell:
     arm = KinematicArm(clock, home)
     gripper = SimGripper(**section(path, data, "gripper", known={"max_width", "gel_stiffness", "max_speed"}))
     settings = world_settings(path, data)
+    look = _look(path, settings[0].get("appearance"), request.seed)  # checked in both modes, used in pixel mode
     world, sensors, sense = build_world(path, settings, arm, gripper, clock, request.scene, request.scene_args,
                                         request.seed)
     if mode == "signals":  # the pipeline's measured errors, unless the file's sensor section turns them off
@@ -56,7 +58,7 @@ def build_sim_cell(path: Path, data: dict, request: CellRequest) -> Cell:
             pixel_level_sense,  # rendered frames -> real pipeline
         )
 
-        sense = pixel_level_sense(world, sensors, clock, request.seed, workers=workers)
+        sense = pixel_level_sense(world, sensors, clock, request.seed, workers=workers, look=look)
     closers = [sense.close] if mode == "pixels" else []  # pixel mode's worker processes
     # The TCP force the skills and the safety layer read: the scene's force through a UR-class sensor.
     ft = config_from(path, "force_sensor", ForceSensorConfig, section(path, data, "force_sensor"))
@@ -67,3 +69,13 @@ def build_sim_cell(path: Path, data: dict, request: CellRequest) -> Cell:
     return Cell(data.get("name", "sim"), SafeArm(sensed, limits, clock), SafeGripper(gripper), clock, sense,
                 world=world, closers=closers, sensor_profile=profile,
                 zero_force_sensor=sensed.zero_ft_sensor)
+
+
+def _look(path: Path, value: object, seed: int) -> Look:
+    """Pixel mode's camera look from the file's `sensor.appearance` (fields, `random`, or absent)."""
+    if isinstance(value, dict):
+        return config_from(path, "sensor.appearance", Look, value)
+    try:
+        return look_from(value, seed)
+    except ValueError as exc:
+        raise CellFileError(path, "sensor.appearance", str(exc)) from None

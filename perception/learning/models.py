@@ -17,17 +17,17 @@ import json
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from sklearn.kernel_ridge import KernelRidge
-from sklearn.neural_network import MLPClassifier
-from sklearn.pipeline import Pipeline, make_pipeline
-from sklearn.preprocessing import LabelBinarizer, StandardScaler
 
 from fvfiles.errors import FvtreeError
 from fvfiles.npz_files import npz_problem
 from perception.learning.features import check_spec, feature_spec
+
+if TYPE_CHECKING:  # scikit-learn loads with the first model made (seconds): `fvtree validate` only checks the file
+    from sklearn.pipeline import Pipeline
+    from sklearn.preprocessing import StandardScaler
 
 FORMAT = "fvtree-model"
 VERSION = 2
@@ -45,6 +45,8 @@ def _scaler_arrays(scaler: StandardScaler) -> dict[str, np.ndarray]:
 
 
 def _scaler(arrays: dict[str, np.ndarray], n: int) -> StandardScaler:
+    from sklearn.preprocessing import StandardScaler
+
     scaler = StandardScaler()
     scaler.mean_, scaler.scale_, scaler.var_ = (arrays[k] for k in ("scaler_mean", "scaler_scale", "scaler_var"))
     scaler.n_features_in_, scaler.n_samples_seen_ = n, 0
@@ -53,6 +55,9 @@ def _scaler(arrays: dict[str, np.ndarray], n: int) -> StandardScaler:
 
 def export_estimator(estimator: Pipeline) -> tuple[dict, dict[str, np.ndarray]]:
     """(description, arrays) of a fitted scaler + kernel ridge or scaler + MLP pipeline."""
+    from sklearn.kernel_ridge import KernelRidge
+    from sklearn.neural_network import MLPClassifier
+
     scaler, model = estimator[0], estimator[-1]
     arrays = _scaler_arrays(scaler)
     if isinstance(model, KernelRidge) and model.kernel == "rbf":
@@ -67,8 +72,9 @@ def export_estimator(estimator: Pipeline) -> tuple[dict, dict[str, np.ndarray]]:
     raise ValueError(f"cannot save a {type(model).__name__} model as plain arrays")
 
 
-def _rebuild(description: Any, arrays: dict[str, np.ndarray], path: Path) -> Pipeline:
-    """The scikit-learn pipeline of a description and its arrays, every shape checked."""
+def _checked(description: Any, arrays: dict[str, np.ndarray], path: Path) -> dict[str, Any]:
+    """The parts of the estimator a description and its arrays make, every shape checked (without
+    scikit-learn, so that a tree's model is checked without importing it)."""
     if not isinstance(description, dict):
         raise ModelError(f"{path}: the header does not describe an estimator; retrain it")
     kind = description.get("type")
@@ -79,9 +85,9 @@ def _rebuild(description: Any, arrays: dict[str, np.ndarray], path: Path) -> Pip
         if kind == "kernel_ridge_rbf":
             x_fit = _expect(arrays["x_fit"], (None, n), "x_fit")
             dual = _expect(arrays["dual_coef"], (x_fit.shape[0],), "dual_coef")
-            model = KernelRidge(alpha=_number(description, "alpha"), kernel="rbf", gamma=_number(description, "gamma"))
-            model.X_fit_, model.dual_coef_, model.n_features_in_ = x_fit, dual, n
-        elif kind == "mlp_classifier":
+            return {"type": kind, "n": n, "x_fit": x_fit, "dual": dual, "alpha": _number(description, "alpha"),
+                    "gamma": _number(description, "gamma")}
+        if kind == "mlp_classifier":
             layers = int(description["layers"])
             if not 1 <= layers <= 16 or description.get("activation") not in ("logistic", "tanh", "relu", "identity") \
                     or description.get("out_activation") not in ("softmax", "logistic"):
@@ -89,22 +95,41 @@ def _rebuild(description: Any, arrays: dict[str, np.ndarray], path: Path) -> Pip
             classes = arrays["classes"]
             if classes.dtype.kind != "U" or classes.ndim != 1 or len(classes) < 2:
                 raise ValueError("classes must be a list of at least two names")
-            model = MLPClassifier(activation=description["activation"])
-            model.coefs_, model.intercepts_, width = [], [], n
+            coefs, intercepts, width = [], [], n
             for i in range(layers):
                 w = _expect(arrays[f"coef_{i}"], (width, None), f"coef_{i}")
-                model.coefs_.append(w)
-                model.intercepts_.append(_expect(arrays[f"intercept_{i}"], (w.shape[1],), f"intercept_{i}"))
+                coefs.append(w)
+                intercepts.append(_expect(arrays[f"intercept_{i}"], (w.shape[1],), f"intercept_{i}"))
                 width = w.shape[1]
-            model.n_layers_, model.n_outputs_, model.out_activation_ = layers + 1, width, description["out_activation"]
-            model.classes_, model.n_features_in_ = classes, n
-            model._label_binarizer = LabelBinarizer().fit(classes)
             if width != (len(classes) if len(classes) > 2 else 1):
                 raise ValueError(f"{width} outputs for {len(classes)} classes")
-        else:
-            raise ValueError(f"unknown estimator type {kind!r}")
+            return {"type": kind, "n": n, "layers": layers, "coefs": coefs, "intercepts": intercepts, "width": width,
+                    "classes": classes, "activation": description["activation"],
+                    "out_activation": description["out_activation"]}
+        raise ValueError(f"unknown estimator type {kind!r}")
     except (KeyError, ValueError, TypeError) as exc:
         raise ModelError(f"{path}: not a usable model ({exc}); retrain it") from None
+
+
+def _rebuild(parts: dict[str, Any], arrays: dict[str, np.ndarray]) -> Pipeline:
+    """The scikit-learn pipeline of an estimator's checked parts (`_checked`)."""
+    from sklearn.kernel_ridge import KernelRidge
+    from sklearn.neural_network import MLPClassifier
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import LabelBinarizer
+
+    n = parts["n"]
+    model: KernelRidge | MLPClassifier
+    if parts["type"] == "kernel_ridge_rbf":
+        model = KernelRidge(alpha=parts["alpha"], kernel="rbf", gamma=parts["gamma"])
+        model.X_fit_, model.dual_coef_, model.n_features_in_ = parts["x_fit"], parts["dual"], n
+    else:
+        model = MLPClassifier(activation=parts["activation"])
+        model.coefs_, model.intercepts_ = parts["coefs"], parts["intercepts"]
+        model.n_layers_, model.n_outputs_, model.out_activation_ = parts["layers"] + 1, parts["width"], \
+            parts["out_activation"]
+        model.classes_, model.n_features_in_ = parts["classes"], n
+        model._label_binarizer = LabelBinarizer().fit(parts["classes"])
     return make_pipeline(_scaler(arrays, n), model)
 
 
@@ -177,8 +202,8 @@ def _read(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
     return header, arrays
 
 
-def load_model(path: str | Path, kind: str) -> TrainedModel:
-    """Load a model of `kind`; ModelError with an actionable message otherwise."""
+def _opened(path: str | Path, kind: str) -> tuple[dict, dict[str, np.ndarray], dict[str, Any]]:
+    """(header, arrays, the estimator's checked parts) of a model file of `kind`; ModelError otherwise."""
     path = Path(path)
     if not path.exists():
         raise ModelError(f"no model file at {path}: train one with `fvtree train {kind} DATA --out {path}`")
@@ -191,5 +216,17 @@ def load_model(path: str | Path, kind: str) -> TrainedModel:
         check_spec(header.get("feature_spec", {}), f"model {path}")
     except ValueError as exc:
         raise ModelError(str(exc)) from None
+    return header, arrays, _checked(header.get("estimator"), arrays, path)
+
+
+def check_model_file(path: str | Path, kind: str) -> None:
+    """Check a model file of `kind` as `load_model` does, without making its estimator (nor importing
+    scikit-learn): what `fvtree validate` does with a tree's models; ModelError otherwise."""
+    _opened(path, kind)
+
+
+def load_model(path: str | Path, kind: str) -> TrainedModel:
+    """Load a model of `kind`; ModelError with an actionable message otherwise."""
+    header, arrays, parts = _opened(path, kind)
     info = header.get("info")
-    return TrainedModel(kind, _rebuild(header.get("estimator"), arrays, path), info if isinstance(info, dict) else {})
+    return TrainedModel(kind, _rebuild(parts, arrays), info if isinstance(info, dict) else {})

@@ -5,16 +5,16 @@ tick never compiles)."""
 import numpy as np
 from conftest import Scene
 
-from drivers.sim.models import fingervision_model, pipeline_error_model
+from drivers.sim.models import sensor_kernels
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
-from perception import sums, tracking_kernels, wrench
+from perception import sums, tracking_kernels, wrench, wrench_kernel
 from perception.marker_tracking import LocalFit, neighbour_index
 from perception.state import MarkerField
 from perception.wrench import marker_forces, marker_levers
 
 KERNELS = [tracking_kernels.measure_windows, tracking_kernels.predict_local, tracking_kernels.near_trusted,
-           tracking_kernels.kalman_step, tracking_kernels.moving_hoods, wrench.mean_wrench,
-           fingervision_model._field, pipeline_error_model.observe, sums.pairwise_sum]
+           tracking_kernels.kalman_step, tracking_kernels.moving_hoods, wrench_kernel.mean_wrench,
+           sensor_kernels.marker_field, sensor_kernels.observe, sums.pairwise_sum]
 
 
 def signatures() -> list[int]:
@@ -83,7 +83,7 @@ def test_the_error_models_marker_step_is_the_numpy_one():
     terms = wrench.wrench_terms(markers, "right")
     for alpha in (1.0, 0.4):
         step = estimate.copy()
-        position, size, moved, force, torque = pipeline_error_model.observe(exact, prev, step, tracked, noise, alpha,
+        position, size, moved, force, torque = sensor_kernels.observe(exact, prev, step, tracked, noise, alpha,
                                                                        markers.origin, terms)
         kept = np.where(tracked[:, None], estimate + alpha * (exact - estimate) if alpha < 1.0 else exact, estimate)
         assert np.array_equal(step, kept)

@@ -11,6 +11,7 @@ import json
 import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -325,18 +326,43 @@ class _Reader:
             self.refuse(x, f"<SubTree ID={ref!r}> names no <BehaviorTree> of this file",
                         did_you_mean(ref, self.subtree_types))
             return None
-        if x.attrs.get("_autoremap", "false") != "false":
-            self.refuse(x, "_autoremap has no equivalent", "pass each param as a port")
         types, defaults = self.subtree_types[ref], self.subtree_defaults.get(ref, {})
         implied = set(x.attrs.get(DEFAULTS_ATTR, "").split(";"))  # written only for BT.CPP: left out again
         params = {k: self.port(x, k, types.get(k, "str")) for k in x.attrs
                   if k not in ("ID", "name", "_autoremap", "_while", DEFAULTS_ATTR) and k not in LAYOUT_ATTRS
                   and not (k in implied and k in defaults and x.attrs[k] == defaults[k])}
+        params.update(self._autoremapped(x, types, defaults, set(x.attrs)))
         out: dict[str, Any] = {"subtree": ref}
         if x.attrs.get("name", ref) != ref:
             out["name"] = x.attrs["name"]
         if params:
             out["params"] = params
+        return out
+
+
+    def _autoremapped(self, x: XmlNode, types: dict[str, str], defaults: dict[str, str],
+                      given: set[str]) -> dict[str, Any]:
+        """The params `_autoremap="true"` passes a SubTree: each param it is not given that has a
+        namesake here (the enclosing subtree's param, `$name`; the main tree's port default, its
+        value), as BT.CPP remaps it to the same key of the parent blackboard. A param without a
+        namesake keeps the subtree's default; one without a default either is refused."""
+        flag = x.attrs.get("_autoremap", "false")
+        if flag not in ("true", "false"):
+            self.refuse(x, f"_autoremap: expected true or false, got {flag!r}",
+                        "a blackboard entry for _autoremap has no equivalent: fvtree params are fixed when the tree loads")
+            return {}
+        if flag == "false":
+            return {}
+        out: dict[str, Any] = {}
+        for name, type_ in types.items():
+            if name in given:
+                continue
+            if name in self.scope.params or name in self.scope.defaults:
+                out[name] = self.reference(x, "_autoremap", name, partial(from_port, type_=type_))
+            elif name not in defaults:
+                where = "param of the enclosing subtree" if self.scope.subtree else "port of the main tree"
+                self.refuse(x, f"_autoremap: the subtree's param {name!r} has no default, and no {where} is "
+                               f"named {name!r} to remap it to", f"pass it as a port: {name}=\"...\"")
         return out
 
 

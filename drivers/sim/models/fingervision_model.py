@@ -17,7 +17,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
 
 from drivers.sim.models import pipeline_error_model
 from drivers.sim.models.pipeline_error_model import ErrorModel, PipelineErrors
@@ -102,9 +101,11 @@ class SensorModel:
         self._noise_scale = np.array([1.0, 1.0, 0.5]) * noise
         self._patch_key: tuple | None = ()  # the centre `_basis` was made for; () before the first
         self._errors: ErrorModel | None = None
+        from drivers.sim.models.sensor_kernels import marker_field
+
         warm_up()  # the compiled wrench, field and error model loaded now, not on the first tick
         pipeline_error_model.warm_up()
-        _field(self._rest, np.zeros((5, len(self._rest))), 0.0, 0.0, 0.0, 0.0, 0.0)
+        marker_field(self._rest, np.zeros((5, len(self._rest))), 0.0, 0.0, 0.0, 0.0, 0.0)
 
     def _patch(self, centre: np.ndarray | None) -> np.ndarray:
         """(5, 3N) displacement basis of a contact centre (None: the image centre): how x, y and size of
@@ -149,7 +150,9 @@ class SensorModel:
         """The marker field of `contact`'s loads: the rest field moved by the contact centre's basis."""
         basis = self._patch(contact.centre)
         shear_x, shear_y = contact.shear.tolist()
-        exact = _field(self._rest, basis, self.shear_gain * shear_x, self.shear_gain * shear_y,
+        from drivers.sim.models.sensor_kernels import marker_field  # numba: loaded by a sensor, not by an import
+
+        exact = marker_field(self._rest, basis, self.shear_gain * shear_x, self.shear_gain * shear_y,
                        self.normal_gain * contact.normal, self.torque_gain * contact.torque,
                        self.size_gain * max(contact.normal, 0.0))
         return exact, exact[:, :2], exact[:, 2]
@@ -163,10 +166,3 @@ class SensorModel:
                                     lossy_share=p.lost_marker_share, lossy_rate=p.lost_marker_rate)
             self._errors = ErrorModel(errors, self._rng, markers, self.finger)
         return self._errors
-
-
-@njit(cache=True, nogil=True)
-def _field(rest, basis, shear_x, shear_y, spread, turn, growth):  # pragma: no cover - compiled
-    """(N, 3) x, y, size of the markers: `rest` (3N,) moved by the loads through `basis` (5, 3N)."""
-    loads = np.array([shear_x, shear_y, spread, turn, growth])
-    return (rest + np.dot(loads, basis)).reshape(-1, 3)

@@ -34,20 +34,18 @@ class MarkerPainter:
         rho = np.hypot(rel[:, 0], rel[:, 1])
         return np.sqrt(1.0 - self.foreshortening * np.minimum(rho / self.window_radius, 1.0) ** 2)
 
-    def diameters(self, position: np.ndarray, size: np.ndarray) -> np.ndarray:
-        """(N,) equivalent diameters of the (foreshortened) markers at `position` with diameters `size`."""
-        return size * self.squash(position)
-
-    def paint(self, target: np.ndarray, position: np.ndarray, size: np.ndarray) -> None:
+    def paint(self, target: np.ndarray, position: np.ndarray, size: np.ndarray,
+              squash: np.ndarray | None = None) -> None:
         """Draw markers centred at `position` (N, 2) px with diameters `size` (N,) px over the
-        (H, W, 3) uint8 image `target`, in place."""
+        (H, W, 3) uint8 image `target`, in place (`squash`: theirs, if the caller has it already)."""
         if not len(position):
             return
         # Pixels up to 0.5 px (in (u, v) of `_paint`) beyond the rim are covered in part: at most
         # a_t + 0.5 / sqrt(1 - foreshortening) px from the centre; the patch starts at the pixel
         # holding the centre, so it reaches one more pixel on the far side.
         reach = int(np.ceil(max(float(size.max()) / 2.0, 1.0) + 0.5 / np.sqrt(1.0 - self.foreshortening)))
-        _paint(target, np.asarray(position, float), np.asarray(size, float), self.squash(position),
+        _paint(target, np.asarray(position, float), np.asarray(size, float),
+               self.squash(position) if squash is None else squash,
                self.centre.astype(float), reach, MARKER_GREY)
 
 

@@ -67,14 +67,14 @@ class Placement:
 class ObjectLayer:
     """Draws the textured object rectangle for a sensor image with a soft round `window` (H, W)."""
 
-    def __init__(self, rng: np.random.Generator, window: np.ndarray):
+    def __init__(self, rng: np.random.Generator, window: np.ndarray, colour: tuple[float, float, float] = OBJECT_BGR):
         self.window = window
         h, w = window.shape
         self.image_size = (w, h)
         noise = rng.standard_normal((TEXTURE_SIDE, TEXTURE_SIDE)).astype(np.float32)
         tex = cv2.GaussianBlur(noise, (0, 0), 2.0)
         texture = 1.0 + 0.25 * tex / tex.std()  # smooth, non-periodic, mean 1
-        self._colour = cv2.convertScaleAbs(texture[:, :, None] * np.asarray(OBJECT_BGR, np.float32))
+        self._colour = cv2.convertScaleAbs(texture[:, :, None] * np.asarray(colour, np.float32))
 
     def place(self, obj: ObjectInfo, shift: float) -> Placement:
         """The rectangle with the object's area share and pose; `shift` px of texture slide."""

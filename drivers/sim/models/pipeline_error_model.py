@@ -27,11 +27,9 @@ from collections import deque
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from numba import njit
 
 from perception.state import MarkerField, ObjectInfo
-from perception.sums import pairwise_sum
-from perception.wrench import mean_wrench, wrench_terms
+from perception.wrench import wrench_terms
 
 IMAGE_SCALE = 280.0  # px per unit of normalised centroid ((W + H) / 2 of the 320x240 image)
 IMAGE_PIXELS = 320 * 240
@@ -124,6 +122,8 @@ class ErrorModel:
         self._tick += 1
         first, same = self._truth is None, exact is self._truth
         valid = self._tracked[t]
+        from drivers.sim.models.sensor_kernels import observe  # numba: loaded by a sensor, not by an import
+
         position, size, moved, force, torque = observe(
             exact, self._truth if not (first or same) else exact, self._estimate, valid, self._noise[t],
             self.e.lag_alpha, self._origin, self._terms)
@@ -184,31 +184,8 @@ class ErrorModel:
 
 def warm_up() -> None:
     """Load the compiled `observe` now (see `perception.wrench.warm_up`)."""
+    from drivers.sim.models.sensor_kernels import observe
+
     exact = np.zeros((1, 3))
     markers = MarkerField(np.zeros((1, 2)))
     observe(exact, exact, exact.copy(), np.ones(1, bool), exact, 1.0, markers.origin, wrench_terms(markers, "left"))
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def observe(exact, prev, estimate, tracked, noise, alpha, origin, terms):  # pragma: no cover - compiled
-    """One tick of the marker errors, in one pass: the tracker's `estimate` (N, 3, updated in place)
-    follows `exact` with the first-order lag `alpha` where `tracked`; returns the reported ((N, 2)
-    positions, (N,) sizes) with `noise` (N, 3) added, the mean |motion| of the exact positions since
-    `prev` (summed in numpy's pairwise order, as `image_motion` sums them), and the (force, torque)
-    the wrench estimator makes of the tracked markers (`origin`, `terms`: `perception.wrench`)."""
-    n = len(exact)
-    position = np.empty((n, 2))
-    size = np.empty(n)
-    for i in range(n):
-        if tracked[i]:
-            for j in range(3):
-                estimate[i, j] = exact[i, j] if alpha >= 1.0 else estimate[i, j] + alpha * (exact[i, j] - estimate[i, j])
-        position[i, 0] = estimate[i, 0] + noise[i, 0]
-        position[i, 1] = estimate[i, 1] + noise[i, 1]
-        size[i] = estimate[i, 2] + noise[i, 2]
-    moved = np.empty(2 * n)
-    for i in range(n):
-        moved[2 * i] = abs(exact[i, 0] - prev[i, 0])
-        moved[2 * i + 1] = abs(exact[i, 1] - prev[i, 1])
-    force, torque = mean_wrench(position, origin, terms, tracked)
-    return position, size, pairwise_sum(moved, 0, 2 * n) / (2 * n), force, torque

@@ -4,20 +4,22 @@ truth, and the pixel-level perception source of the simulated cell.
 A frame is a round sensor window (dark housing around it) showing a blurred, fisheye-distorted,
 vignetted scene of background clutter, optionally a textured object pressed on the skin (it can
 slide: `obj_shift`) and a moving distractor behind it; black markers are drawn on top as
-anti-aliased, radially foreshortened discs whose centres are exactly the given positions. Lighting
-gain and gradient, dark occluders behind the skin, glare, blur and sensor noise are applied per
-frame. Everything random is drawn from the camera's seeded generator.
+anti-aliased, radially foreshortened discs whose centres are the given positions plus the sensor's
+rest jitter (`jitter_px`: seeded AR(1) wander, so the tracker measures the profile's rest jitter, see
+`drawn_jitter`). Lighting gain and gradient, dark occluders behind the skin, glare, blur and sensor
+noise are applied per frame. Everything random is drawn from the camera's seeded generators.
 
 Only what changed is drawn again: the clutter is drawn once; the layer beneath the markers
 (clutter, distractor, object, occluder) is redrawn on the object's bounding box when the object
-moves; the markers are redrawn on their patches when one of them moves; a frame where nothing moved
-more than `TOLERANCE_PX` reuses the last noise-free image (its truth is what was drawn). The sensor
-noise is fresh on every frame (`noise_bank`).
+moves; the markers are redrawn when one of them moves (with rest jitter: on every frame, ~0.13 ms);
+a frame where nothing moved more than `TOLERANCE_PX` reuses the last noise-free image (its truth is
+what was drawn). The sensor noise is fresh on every frame (`noise_bank`).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
@@ -26,17 +28,34 @@ import numpy as np
 
 from drivers.clock import SimClock
 from drivers.protocols import World
+from drivers.sim.models.appearance import DEFAULT_LOOK, Look
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
 from drivers.sim.models.marker_patches import MarkerPainter
 from drivers.sim.models.noise_bank import NoiseBank
-from drivers.sim.models.object_layer import ObjectLayer, ObjectPatch, Placement, object_info_from_mask
+from drivers.sim.models.object_layer import OBJECT_BGR, ObjectLayer, ObjectPatch, Placement, object_info_from_mask
 from drivers.sim.models.pipeline_error_model import SLIP_PX_PER_UNIT
 from drivers.sim.models.skin import Skin
+from perception.sensor_profile import SensorProfile
 from perception.state import FINGERS, ObjectInfo, TactileState
 
 HOUSING_GREY = 50.0
 SKIN_BGR = (120.0, 150.0, 205.0)
 TOLERANCE_PX = 0.01  # a marker or object edge moving less than this keeps the last drawing
+# How the pipeline's marker tracker, without its Kalman filter (as the blob tracker of the real logs the
+# profile's rest jitter comes from), sees the drawn markers of a still skin (measured on 2 x 300 frames,
+# tests/perception/test_fv_sim_camera.py::test_pixel_mode_rest_jitter_is_the_profiles_through_the_tracker):
+TRACKED_SHARE = 0.86  # of a marker's drawn sub-pixel wander (the local threshold and pixel grid keep the rest)
+IMAGE_NOISE_PX = 0.0103  # px per axis of its own, from the 2-grey-level image noise on a still drawing
+
+
+def drawn_jitter(profile: SensorProfile) -> float:
+    """Per-axis std (px) of the wander to draw the markers with, so that the tracker measures the
+    profile's rest jitter (`rest_jitter_px`, median frame-to-frame step) on top of the image noise: the
+    steps' variance 2 sigma^2 (1 - rho) is the drawn part's (TRACKED_SHARE sigma_d)^2 2 (1 - rho) plus
+    the image noise's 2 IMAGE_NOISE_PX^2 (white)."""
+    keep = 1.0 - profile.jitter_persistence
+    wanted = profile.noise_sigma_px**2 * keep - IMAGE_NOISE_PX**2
+    return math.sqrt(max(wanted, 0.0) / keep) / TRACKED_SHARE
 
 
 @dataclass(frozen=True)
@@ -49,11 +68,17 @@ class Appearance:
     blur: float = 0.0  # Gaussian blur sigma, px
     occlusion: float = 0.0  # share of the window hidden behind a dark object (markers lose contrast)
     glare: float = 0.0  # share of the window washed out by a specular highlight
+    cast: tuple[float, float, float] = (1.0, 1.0, 1.0)  # B, G, R gains of the light (a colour cast)
 
     @property
     def plain(self) -> bool:
         """No lighting change, glare or blur: the noise-free image is the drawn layers as they are."""
-        return self.gain == 1.0 and not self.gradient and not self.glare and not self.blur
+        return self.gain == 1.0 and not self.gradient and not self.glare and not self.blur and self.white
+
+    @property
+    def white(self) -> bool:
+        """No colour cast."""
+        return self.cast == (1.0, 1.0, 1.0)
 
 
 @dataclass(frozen=True)
@@ -94,6 +119,10 @@ class SyntheticFingerVision:
     window_radius: float = 128.0  # px, radius of the round sensor window
     foreshortening: float = 0.35  # radial squash of markers at the window rim
     clutter: int = 14  # background shapes
+    jitter_px: float = 0.0  # per-axis std of the markers' wander about the positions given to `render`, px
+    jitter_persistence: float = 0.0  # lag-1 autocorrelation of that wander from frame to frame (AR(1))
+    background_tint: tuple[float, float, float] = (1.0, 1.0, 1.0)  # B, G, R gains of the clutter behind the skin
+    object_bgr: tuple[float, float, float] = OBJECT_BGR  # the object's colour
     _rng: np.random.Generator = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -107,7 +136,7 @@ class SyntheticFingerVision:
         self._window = np.clip(self.window_radius + 0.5 - rr, 0.0, 1.0)[:, :, None]  # soft rim
         self._background = self._scene()
         self._occluder_seed = int(self._rng.integers(1 << 31))
-        self._object = ObjectLayer(self._rng, self._window[:, :, 0])
+        self._object = ObjectLayer(self._rng, self._window[:, :, 0], self.object_bgr)
         self._noise_seed = int(self._rng.integers(1 << 31))
         self._painter = MarkerPainter(self.image_size, self._centre, self.window_radius, self.foreshortening)
         self._masks: dict[tuple[float, int], np.ndarray] = {}
@@ -124,7 +153,11 @@ class SyntheticFingerVision:
         self._drawn_position = np.full_like(self.origin, np.nan)  # the markers as last drawn
         self._drawn_size = np.full(len(self.origin), np.nan)
         self._diameters = np.zeros(len(self.origin))
+        self._squash = np.ones(len(self.origin))
         self._seen = np.ones(len(self.origin), bool)  # which drawn markers are visible
+        # The markers' rest jitter: its own generator, so the scene drawn above stays as it was.
+        self._jitter_rng = np.random.default_rng([self.seed, 0x4A17])
+        self._wander: np.ndarray | None = None  # drawn from the stationary distribution on the first frame
 
     # ---- static parts -------------------------------------------------------------------
     def _scene(self) -> np.ndarray:
@@ -152,6 +185,8 @@ class SyntheticFingerVision:
         mapy = (h / 2.0 + (self._yy - h / 2.0) * scale).astype(np.float32)
         img = cv2.remap(img, mapx, mapy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
         img *= (1.0 - 0.3 * np.clip(rn, 0, 1.2) ** 2)[:, :, None]
+        if self.background_tint != (1.0, 1.0, 1.0):
+            img *= np.asarray(self.background_tint, np.float32)
         return img * self._window + HOUSING_GREY * (1.0 - self._window)
 
     def _blob_mask(self, share: float, salt: int) -> np.ndarray:
@@ -236,19 +271,22 @@ class SyntheticFingerVision:
         if not (np.abs(position - self._drawn_position).max(initial=0.0) <= TOLERANCE_PX
                 and np.abs(size - self._drawn_size).max(initial=0.0) <= TOLERANCE_PX):
             self._drawn_position, self._drawn_size = position.copy(), size.copy()
-            self._diameters = self._painter.diameters(position, size)
+            self._squash = self._painter.squash(position)
+            self._diameters = size * self._squash  # equivalent diameters of the squashed discs
             self._clean_key = None
-        key = (self._shown, look.gain, look.gradient, look.glare, look.blur)
+        key = (self._shown, look.gain, look.gradient, look.glare, look.blur, look.cast)
         if key == self._clean_key:
             return self._clean
         self._seen = self._visible(self._drawn_position, look)
         clean = self._under.copy()
-        self._painter.paint(clean, self._drawn_position, self._drawn_size)
+        self._painter.paint(clean, self._drawn_position, self._drawn_size, self._squash)
         if not look.plain:
             img = clean.astype(np.float32)
             if look.gain != 1.0 or look.gradient:
                 light = look.gain * (1.0 + look.gradient * (self._xx / self.image_size[0] - 0.5))
                 img *= light[:, :, None]
+            if not look.white:
+                img *= np.asarray(look.cast, np.float32)
             if look.glare > 0:
                 img += (self._blob_mask(look.glare, 2) * 1.2)[:, :, None] * (255.0 - img)
             if look.blur > 0:
@@ -267,6 +305,8 @@ class SyntheticFingerVision:
         size = np.asarray(self.marker_size if size is None else size, float)
         if size.shape != (len(position),):
             size = np.full(len(position), size)
+        if self.jitter_px > 0.0:
+            position = position + self._jitter()
         self._update_under(obj, obj_shift, appearance.occlusion, distractor)
         clean = self._clean_frame(position, size, appearance)
         image = self._noise_bank(appearance.noise).add(clean) if appearance.noise > 0 else clean.copy()
@@ -274,6 +314,15 @@ class SyntheticFingerVision:
         place = self._shown.place
         return RenderedFrame(image, Truth(self._drawn_position.copy(), self._diameters, self._seen, mask,
                                           truth_obj, place.shift if place is not None else obj_shift))
+
+    def _jitter(self) -> np.ndarray:
+        """(N, 2) px the markers wander from where the contact puts them on this frame: seeded AR(1)
+        noise of per-axis std `jitter_px` and persistence `jitter_persistence` (a real sensor's rest
+        jitter: camera and compression noise, skin micro-motion, beyond the image noise drawn here)."""
+        fresh = self._jitter_rng.standard_normal(self.origin.shape) * self.jitter_px
+        rho = self.jitter_persistence
+        self._wander = fresh if self._wander is None else rho * self._wander + math.sqrt(1.0 - rho * rho) * fresh
+        return self._wander
 
     def _noise_bank(self, std: float) -> NoiseBank:
         if std not in self._noise:
@@ -308,6 +357,9 @@ class FingerRig:
     seed: int  # the camera's
     preset: str  # the pipeline configuration
     fps: float
+    jitter_px: float = 0.0  # per-axis std of the drawn markers' rest wander (`drawn_jitter`)
+    jitter_persistence: float = 0.0  # its lag-1 autocorrelation
+    look: Look = DEFAULT_LOOK  # lighting, background and object colour
 
 
 class PixelFinger:
@@ -321,43 +373,57 @@ class PixelFinger:
         # Small frames, one at a time: OpenCV's thread pool costs more than it gains on 320x240 images
         # (10-20 % more CPU time per pixel-mode tick with two threads on two cores).
         cv2.setNumThreads(1)
-        self.camera = SyntheticFingerVision(rig.origin, rig.marker_size, tuple(rig.image_size), seed=rig.seed)
+        look = rig.look
+        self.camera = SyntheticFingerVision(rig.origin, rig.marker_size, tuple(rig.image_size), seed=rig.seed,
+                                            clutter=look.background_clutter, jitter_px=rig.jitter_px,
+                                            jitter_persistence=rig.jitter_persistence,
+                                            background_tint=look.background_tint, object_bgr=look.object_bgr)
+        self.appearance = Appearance(gain=look.brightness, gradient=look.gradient, glare=look.glare,
+                                     cast=look.colour_cast)
         self.pipeline = FingerVision(load_config(rig.preset, camera_fps=rig.fps), rig.finger)
         n = self.pipeline.config.calibration.n_frames
-        self.pipeline.calibrate([self.camera.render().image for _ in range(n)])
+        self.pipeline.calibrate([self.camera.render(appearance=self.appearance).image for _ in range(n)])
         # The object colour model, marked on three frames of a known object (the original's hand edit).
         for _ in range(3):
-            sample = self.camera.render(obj=ObjectInfo(True, 0.3, np.zeros(2), 0.0))
+            sample = self.camera.render(obj=ObjectInfo(True, 0.3, np.zeros(2), 0.0), appearance=self.appearance)
             self.pipeline.proximity.add_object(sample.image, sample.truth.object_mask)
 
     def process(self, position: np.ndarray, size: np.ndarray, obj: ObjectInfo | None, shift: float,
                 stamp: float) -> tuple[TactileState, np.ndarray]:
         """The pipeline's state of the frame showing markers at `position` and the object slid by `shift`
         px, and that frame."""
-        image = self.camera.render(position, size, obj, shift).image
+        image = self.camera.render(position, size, obj, shift, self.appearance).image
         return self.pipeline.process(image, stamp), image
 
 
-def finger_rigs(sensors: Mapping[str, SensorModel], clock: SimClock, seed: int, preset: str) -> dict[str, FingerRig]:
-    """Each finger's rig; camera seeds follow the sensor models' (`seed * 2 + i`)."""
+def finger_rigs(sensors: Mapping[str, SensorModel], clock: SimClock, seed: int, preset: str,
+                look: Look = DEFAULT_LOOK) -> dict[str, FingerRig]:
+    """Each finger's rig; camera seeds follow the sensor models' (`seed * 2 + i`); the markers are drawn
+    with the rest jitter of the sensor's profile (`drawn_jitter`), the scene with the cell's `look`."""
     return {finger: FingerRig(finger, sensors[finger].origin, sensors[finger].marker_size,
-                              tuple(sensors[finger].image_size), seed * 2 + i, preset, 1.0 / clock.period)
+                              tuple(sensors[finger].image_size), seed * 2 + i, preset, 1.0 / clock.period,
+                              drawn_jitter(sensors[finger].profile), sensors[finger].profile.jitter_persistence,
+                              look)
             for i, finger in enumerate(FINGERS)}
 
 
 def pixel_level_sense(world: World, sensors: Mapping[str, SensorModel], clock: SimClock, seed: int,
-                      preset: str = "fast", workers: bool | None = None) -> Callable[[], dict[str, TactileState]]:
+                      preset: str = "fast", workers: bool | None = None,
+                      look: Look = DEFAULT_LOOK) -> Callable[[], dict[str, TactileState]]:
     """Perception source of the simulated cell that renders each finger's frame and runs the real
     FingerVision pipeline on it (calibrated at start on frames with no contact).
 
-    The markers are drawn where the contact model puts them without its position noise: the
-    tracking noise comes from the image noise, as on a real sensor. With `workers` (default: when
+    The markers are drawn where the contact model puts them without its position noise, plus the
+    rest jitter of the sensor's profile (the wander a real sensor's camera, compression and skin add):
+    the tracker measures the profile's rest jitter and the pipeline's Kalman filter smooths it, as on
+    a real sensor. With `workers` (default: when
     the machine has two cores or more) the fingers are processed at the same time, as a real rig
     processes each camera on its own (`pixel_workers`); the states are the same either way. The
-    source's `close()` stops the workers."""
+    source's `close()` stops the workers. `look`: the cameras' lighting, background and object colour
+    (`drivers.sim.models.appearance`)."""
     from drivers.sim.models.pixel_workers import WORKER_FINGERS, FingerWorkers, parallel_by_default
 
-    rigs = finger_rigs(sensors, clock, seed, preset)
+    rigs = finger_rigs(sensors, clock, seed, preset, look)
     models = {finger: dataclasses.replace(sensors[finger], noise_px=0.0) for finger in FINGERS}
     fields = {finger: _field_of(models[finger]) for finger in FINGERS}
     shift = {finger: 0.0 for finger in FINGERS}

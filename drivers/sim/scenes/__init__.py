@@ -34,7 +34,7 @@ SCENES: dict[str, Callable[[SceneArm, SceneGripper, dict, dict, int], World]] = 
 SCENE_PACKAGES: dict[str, str] = dict.fromkeys(SCENES, "fvtree")
 
 # `profile`: a profile's name or path; any of the profile's numbers overrides the profile's value
-SENSOR_FIELDS = set(SensorModel.__dataclass_fields__) - {"finger", "seed"} | set(NUMBERS)
+SENSOR_FIELDS = set(SensorModel.__dataclass_fields__) - {"finger", "seed"} | set(NUMBERS) | {"appearance"}
 WORLD_FIELDS = set(assembly.SceneConfig.__dataclass_fields__) - {"seed"} | {randomise.RANDOMISE}
 
 
@@ -61,6 +61,7 @@ def cell_profile(path: Path, sensor_cfg: dict) -> tuple[SensorProfile, dict]:
     and the settings left for the sensor model; CellFileError naming the field."""
     sensor_cfg = dict(sensor_cfg)
     profile = sensor_profile(path, sensor_cfg.pop("profile", DEFAULT_PROFILE))
+    sensor_cfg.pop("appearance", None)  # pixel mode's camera look (drivers/sim/cell.py)
     changed = {key: sensor_cfg.pop(key) for key in NUMBERS if key in sensor_cfg}
     if changed:
         try:

@@ -4,9 +4,16 @@ minimum-jerk path and holds it there. The person's arm is a spring (stiffness `h
 force capped at `max_force`) pulling the block towards the scripted path; the block reaches the
 hand through the gel (elastic shear, then sliding beyond friction) and, along the closing axis,
 through the pads' normal stiffness. The cameras see the block shift along the pads (centroid,
-with noise); along the closing axis the pads touch it, so it cannot shift in the view, but
-pressed harder into one pad it flattens more of that gel: the area a pad sees grows with its
-normal load as a Hertz contact's does (load^(2/3)).
+with noise). Along the closing axis the block cannot shift in the view: its face touches the skin,
+so all a camera can see of a push is the block coming nearer as the gel under it compresses (and
+going away as the other pad's gel relaxes). Each camera sees through the skin with a lens
+`camera_depth` behind the skin's surface; a pad under a normal load N is compressed by
+N / `pad_stiffness`, so the block's apparent area is `area` (at the grasp's own squeeze) times
+(d_grasp / d)^2 with d = camera_depth - N / pad_stiffness (a pinhole; the blur does not change, the
+block's face stays on the skin where the camera is focused). With the defaults a newton of push
+(half a newton more on one pad, half less on the other) changes the area each pad sees by about 1 %:
+this, not a growing contact patch, is the cue vision has along the axis perpendicular to the skin
+(docs/physics.md).
 """
 
 from __future__ import annotations
@@ -47,6 +54,11 @@ class FollowMeScene(Scene):
     view_half: float = 0.015  # m, half the camera window along the pads
     pad_reach: float = 0.02  # m the block may slide along the pads before it leaves them
     vision_noise: float = 0.01  # std of the centroid, image fraction
+    # FingerVision's camera sits behind an acrylic plate and the gel; no published figure for the lens-to-
+    # skin distance: 20 mm (range 15-30 mm) is the depth of a fingertip that fits a parallel gripper.
+    camera_depth: float = 0.02  # m
+    pad_stiffness: float = 5000.0  # N/m, one pad's gel along its normal (the simulated gripper's 2500 N/m
+    # squeeze per metre of closing is two such gels in series)
     seed: int = 0
     grip: Grip = field(default_factory=Grip)
 
@@ -129,12 +141,13 @@ class FollowMeScene(Scene):
         return pad_contacts(normals, self._force, 0.0, views, slip)
 
     def pressed_area(self, normal: float) -> float:
-        """Share of a pad's image the block covers under `normal` N: `area` at the grasp's own
-        squeeze, growing as load^(2/3), down to a fifth when the block barely touches."""
+        """Share of a pad's image the block covers under `normal` N (signed: below 0 the block has left
+        the gel by -normal / pad_stiffness): `area` at the grasp's own squeeze, scaled by the square of
+        how much nearer the block is to the camera than then."""
         squeeze = self.gripper.squeeze_force()
-        if squeeze <= 0.0:
-            return self.area
-        return self.area * min(max((max(normal, 0.0) / squeeze) ** (2.0 / 3.0), 0.2), 1.0 / self.area)
+        near = self.camera_depth - squeeze / self.pad_stiffness  # lens to the block's face at the grasp
+        now = max(self.camera_depth - normal / self.pad_stiffness, 0.2 * self.camera_depth)
+        return min(self.area * (near / now) ** 2, 1.0)
 
     def _open_contacts(self):
         """Before the grasp: the block is seen between the open fingers, nothing touches."""

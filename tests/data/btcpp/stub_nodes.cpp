@@ -13,11 +13,17 @@
 //
 // Spec lines (tab-separated): N <Action|Condition|Decorator|Control> <ID>;
 // P <port> <type> <0|1 has default> [default]; B <key> <double|bool|string> <value>;
-// F <name>: the stub nodes of that instance name return FAILURE (all others SUCCESS).
+// F <name>: the stub nodes of that instance name return FAILURE (all others SUCCESS);
+// E <element id>: the design's elements in build order (what an empty ForEachElement runs over).
+//
+// fvtree's own kinds are modelled, not stubbed: ForEachElement runs its child once per element,
+// StatusMap maps its child's status, FvParallel ticks every child as py_trees' Parallel does.
+// A Guard passes its child's status through: its condition is BT.CPP's own `_while` pre-condition.
 
 #include <behaviortree_cpp/bt_factory.h>
 #include <behaviortree_cpp/xml_parsing.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <set>
 #include <sstream>
@@ -140,7 +146,7 @@ public:
   }
 };
 
-// A decorator that returns its child's status (the fvtree decorators' effect is not modelled).
+// A decorator that returns its child's status (a Guard; a plug-in's decorator).
 class StubDecorator : public DecoratorNode
 {
 public:
@@ -157,7 +163,7 @@ public:
   }
 };
 
-// A control that ticks its children in order, as a sequence with memory.
+// A control that ticks its children in order, as a sequence with memory (a plug-in's control).
 class StubControl : public ControlNode
 {
 public:
@@ -197,6 +203,174 @@ private:
   size_t index_ = 0;
 };
 
+std::vector<std::string> g_elements;  // the design's elements in build order (spec lines E)
+
+std::vector<std::string> split(const std::string& text, char sep)
+{
+  std::vector<std::string> out;
+  std::string::size_type start = 0;
+  while(start <= text.size())
+  {
+    auto end = text.find(sep, start);
+    if(end == std::string::npos)
+      end = text.size();
+    if(end > start)
+      out.push_back(text.substr(start, end - start));
+    start = end + 1;
+  }
+  return out;
+}
+
+// fvtree's for_each_element: the child once per element (the `elements` port, or every element of
+// the design when it is empty), in order; FAILURE as soon as one fails. Logs "ELEMENT <path> <id>".
+class ForEachElementStub : public DecoratorNode
+{
+public:
+  ForEachElementStub(const std::string& name, const NodeConfig& config) : DecoratorNode(name, config) {}
+  NodeStatus tick() override
+  {
+    if(status() == NodeStatus::IDLE)
+    {
+      read_all(*this);
+      auto given = getInput<std::vector<std::string>>("elements");
+      elements_ = given && !given.value().empty() ? given.value() : g_elements;
+      index_ = 0;
+      started_ = false;
+    }
+    setStatus(NodeStatus::RUNNING);
+    while(index_ < elements_.size())
+    {
+      if(!started_)
+      {
+        g_log << "ELEMENT\t" << fullPath() << "\t" << elements_[index_] << "\n";
+        started_ = true;
+      }
+      const NodeStatus out = child_node_->executeTick();
+      if(out == NodeStatus::RUNNING)
+        return out;
+      resetChild();
+      started_ = false;
+      if(out == NodeStatus::FAILURE)
+      {
+        index_ = 0;
+        return out;
+      }
+      index_++;
+    }
+    index_ = 0;
+    return NodeStatus::SUCCESS;
+  }
+  void halt() override
+  {
+    index_ = 0;
+    started_ = false;
+    DecoratorNode::halt();
+  }
+
+private:
+  std::vector<std::string> elements_;
+  size_t index_ = 0;
+  bool started_ = false;
+};
+
+NodeStatus fvtree_status(const std::string& name)
+{
+  if(name == "success")
+    return NodeStatus::SUCCESS;
+  if(name == "failure")
+    return NodeStatus::FAILURE;
+  if(name == "running")
+    return NodeStatus::RUNNING;
+  throw RuntimeError("StatusMap: unknown status [", name, "]");
+}
+
+// fvtree's status_map: the child's status translated through `map` ("from:to;...").
+class StatusMapStub : public DecoratorNode
+{
+public:
+  StatusMapStub(const std::string& name, const NodeConfig& config) : DecoratorNode(name, config) {}
+  NodeStatus tick() override
+  {
+    if(status() == NodeStatus::IDLE)
+      read_all(*this);
+    setStatus(NodeStatus::RUNNING);
+    const NodeStatus out = child_node_->executeTick();
+    NodeStatus mapped = out;
+    for(const auto& pair : split(getInput<std::string>("map").value(), ';'))
+    {
+      auto sides = split(pair, ':');
+      if(sides.size() != 2)
+        throw RuntimeError("StatusMap: bad pair [", pair, "]");
+      if(fvtree_status(sides[0]) == out)
+        mapped = fvtree_status(sides[1]);
+    }
+    if(out != NodeStatus::RUNNING)
+      resetChild();
+    return mapped;
+  }
+};
+
+// fvtree's parallel (py_trees' Parallel): every child ticked each tick (with `synchronise`, those
+// that succeeded are not ticked again), then FAILURE if one failed; SUCCESS when all (policy all),
+// one (one), or the `selected` children by name (selected) have succeeded.
+class FvParallelStub : public ControlNode
+{
+public:
+  FvParallelStub(const std::string& name, const NodeConfig& config) : ControlNode(name, config) {}
+  NodeStatus tick() override
+  {
+    if(status() == NodeStatus::IDLE)
+    {
+      read_all(*this);
+      done_.assign(childrenCount(), NodeStatus::IDLE);
+    }
+    setStatus(NodeStatus::RUNNING);
+    const std::string policy = getInput<std::string>("policy").value();
+    const bool synchronise = getInput<bool>("synchronise").value();
+    auto chosen = getInput<std::vector<std::string>>("selected");
+    const std::vector<std::string> selected = chosen ? chosen.value() : std::vector<std::string>{};
+    bool failed = false;
+    for(size_t i = 0; i < childrenCount(); i++)  // every child, then the verdict (py_trees' order)
+    {
+      if(synchronise && done_[i] == NodeStatus::SUCCESS)
+        continue;
+      done_[i] = children_nodes_[i]->executeTick();
+      failed = failed || done_[i] == NodeStatus::FAILURE;
+    }
+    if(failed)
+      return finish(NodeStatus::FAILURE);
+    size_t succeeded = 0, wanted = 0, wanted_succeeded = 0;
+    for(size_t i = 0; i < childrenCount(); i++)
+    {
+      const bool ok = done_[i] == NodeStatus::SUCCESS;
+      succeeded += ok;
+      if(std::find(selected.begin(), selected.end(), children_nodes_[i]->name()) != selected.end())
+      {
+        wanted++;
+        wanted_succeeded += ok;
+      }
+    }
+    if((policy == "all" && succeeded == childrenCount()) || (policy == "one" && succeeded > 0) ||
+       (policy == "selected" && wanted_succeeded == wanted))
+      return finish(NodeStatus::SUCCESS);
+    return NodeStatus::RUNNING;
+  }
+  void halt() override
+  {
+    done_.assign(childrenCount(), NodeStatus::IDLE);
+    ControlNode::halt();
+  }
+
+private:
+  NodeStatus finish(NodeStatus result)
+  {
+    resetChildren();
+    done_.assign(childrenCount(), NodeStatus::IDLE);
+    return result;
+  }
+  std::vector<NodeStatus> done_;
+};
+
 PortInfo typed_port(const std::string& name, const std::string& type)
 {
   if(type == "double")
@@ -229,6 +403,7 @@ void register_spec(BehaviorTreeFactory& factory, const std::string& spec,
   std::istringstream lines(spec);
   std::string line;
   g_failing.clear();
+  g_elements.clear();
   std::vector<TreeNodeManifest> manifests;
   while(std::getline(lines, line))
   {
@@ -251,6 +426,8 @@ void register_spec(BehaviorTreeFactory& factory, const std::string& spec,
     }
     else if(f[0] == "F" && f.size() == 2)
       g_failing.insert(f[1]);
+    else if(f[0] == "E" && f.size() == 2)
+      g_elements.push_back(f[1]);
     else if(f[0] == "B" && f.size() == 4)
     {
       if(blackboard == nullptr)
@@ -267,6 +444,22 @@ void register_spec(BehaviorTreeFactory& factory, const std::string& spec,
   }
   for(const auto& manifest : manifests)
   {
+    // fvtree's own kinds, modelled (a Guard's condition is BT.CPP's own `_while`: it passes through)
+    if(manifest.registration_ID == "ForEachElement")
+    {
+      factory.registerBuilder(manifest, builder<ForEachElementStub>());
+      continue;
+    }
+    if(manifest.registration_ID == "StatusMap")
+    {
+      factory.registerBuilder(manifest, builder<StatusMapStub>());
+      continue;
+    }
+    if(manifest.registration_ID == "FvParallel")
+    {
+      factory.registerBuilder(manifest, builder<FvParallelStub>());
+      continue;
+    }
     switch(manifest.type)
     {
       case NodeType::ACTION:
@@ -312,6 +505,25 @@ const char* fv_btcpp_run(const char* spec, const char* xml, int max_ticks)
     }
     tree.haltTree();
     g_result = "STATUS\t" + toStr(status) + "\t" + std::to_string(ticks) + "\n" + g_log.str();
+  }
+  catch(const std::exception& exc)
+  {
+    g_result = std::string("ERROR\t") + exc.what();
+  }
+  return g_result.c_str();
+}
+
+// The tree as BT.CPP's Groot2Publisher sends it to Groot2 (its FULLTREE reply): `xml` loaded with
+// the spec's stubs and written back by WriteTreeToXML with metadata (_uid, _fullpath) and models.
+const char* fv_btcpp_fulltree(const char* spec, const char* xml)
+{
+  try
+  {
+    BehaviorTreeFactory factory;
+    auto blackboard = Blackboard::create();
+    register_spec(factory, spec, blackboard);
+    auto tree = factory.createTreeFromText(xml, blackboard);
+    g_result = WriteTreeToXML(tree, true, true);
   }
   catch(const std::exception& exc)
   {
