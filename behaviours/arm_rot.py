@@ -1,10 +1,15 @@
 """ArmRot: turn the wrist about the fingers' closing axis in the sense of the torque the held
 object puts on the fingers (estimated from the marker field), until that torque vanishes:
-an asymmetric object then hangs with its centre of mass below the grasp."""
+an asymmetric object then hangs with its centre of mass below the grasp. Once the torque has stayed
+below `eps` for `settle` ticks the wrist stands still until the reading is steady (two runs of
+`settle` ticks agree within eps / 2), and turns on if torque shows up meanwhile: a viscoelastic skin
+shows a load up to a second late, and a wrist that stopped at the first quiet reading would leave
+the object up to 10 deg from hanging."""
 
 from __future__ import annotations
 
 import math
+from collections import deque
 
 import numpy as np
 from py_trees.common import Status
@@ -38,7 +43,8 @@ class ArmRot(ProgramSkill):
         if object_area(*self.tactile()) <= 0.0:
             return self.fail("nothing held between the fingers to balance")
         quiet = 0
-        while quiet < self.p.settle:
+        still: deque[float] = deque(maxlen=2 * self.p.settle)  # readings while standing still
+        while True:
             torque = hand_torque(*self.tactile())
             pose = self.pose()
             turned = math.degrees(angle_between(start, pose))
@@ -54,9 +60,19 @@ class ArmRot(ProgramSkill):
             fault = self.arm_fault()
             if fault:
                 return self.fail(f"arm fault: {fault}")
-            quiet = quiet + 1 if abs(torque) < self.p.eps else 0
-            rate = float(np.clip(self.p.gain * torque, -self.p.max_speed, self.p.max_speed))
-            arm.speed_linear(np.r_[0.0, 0.0, 0.0, rotation(pose)[:, 1] * rate])
+            if quiet >= self.p.settle:  # standing: the skin may not show the whole torque yet
+                still.append(torque)
+                if abs(torque) >= self.p.eps:
+                    quiet = 0  # more torque showed up: turn on
+                elif len(still) == still.maxlen and steady(still, self.p.eps):
+                    break
+            else:
+                quiet = quiet + 1 if abs(torque) < self.p.eps else 0
+                rate = float(np.clip(self.p.gain * torque, -self.p.max_speed, self.p.max_speed))
+                arm.speed_linear(np.r_[0.0, 0.0, 0.0, rotation(pose)[:, 1] * rate])
+                if quiet >= self.p.settle:
+                    arm.stop()
+                    still.clear()
             self.feedback_message = f"torque {torque:.2f} px, turned {turned:.1f} deg"
             yield
         arm.stop()
@@ -64,3 +80,11 @@ class ArmRot(ProgramSkill):
         self.write(keys.ARM_ROTATION, turned)
         self.feedback_message = f"torque vanished after turning {turned:.1f} deg"
         return Status.SUCCESS
+
+
+def steady(readings: deque, eps: float) -> bool:
+    """Whether the mean of the newer half of `readings` is within eps / 2 of the older half's: the
+    skin has shown what it will (a lagging skin keeps moving towards the load for up to a second)."""
+    values = list(readings)
+    half = len(values) // 2
+    return abs(float(np.mean(values[half:])) - float(np.mean(values[:half]))) < eps / 8.0

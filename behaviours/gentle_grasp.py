@@ -1,5 +1,7 @@
 """GentleGrasp: close the gripper in small steps until the marker field changes on enough
-markers (the object is touched), then squeeze a set margin so the grip carries the task loads."""
+markers (the object is touched), then squeeze a set margin so the grip carries the task loads.
+A marker counts as changed beyond `threshold`, or beyond `noise_factor` times the rest noise the
+first frames show when the skin is noisier than that (`ForceChangeDetector`)."""
 
 from __future__ import annotations
 
@@ -20,6 +22,8 @@ class GentleGrasp(ProgramSkill):
         "step": Param("float", "gripper closing step per tick", 0.0005, "m", min=1e-5, max=0.01),
         "threshold": Param("float", "per-marker force change that counts as touched", 0.3, "px", min=0.0),
         "min_markers": Param("int", "markers that must change for contact", 10, min=1),
+        "noise_factor": Param("float", "a marker counts only beyond this many times the rest noise measured "
+                              "before closing (when that is above `threshold`)", 4.0, min=0.0),
         "squeeze": Param("float", "extra closing after contact, for a firm hold", 0.005, "m", min=0.0, max=0.02),
         "force": Param("float", "gripper force limit", 40.0, "N", min=0.0, device="gripper_force"),
         "min_width": Param("float", "width at which closing gives up (nothing grasped)", 0.002, "m", min=0.0, device="gripper_width"),
@@ -30,7 +34,7 @@ class GentleGrasp(ProgramSkill):
 
     def program(self):
         gripper = self.cell.gripper
-        detector = ForceChangeDetector(self.p.threshold, self.p.min_markers)
+        detector = ForceChangeDetector(self.p.threshold, self.p.min_markers, noise_factor=self.p.noise_factor)
         speed, start = self.p.step / self.cell.clock.period, self.now()
         while True:
             left, right = self.tactile()
@@ -47,7 +51,7 @@ class GentleGrasp(ProgramSkill):
                 return self.fail(f"no contact felt within {self.p.max_time:.0f} s; the fingers stand at "
                                  f"{width * 1000:.1f} mm: are they blocked, or is FingerVision blind?")
             gripper.move(width - self.p.step, speed, self.p.force)
-            self.feedback_message = f"closing, {detector.changed} markers changed"
+            self.feedback_message = f"closing, {detector.changed} markers moved over {detector.limit:.2f} px"
             yield
         contact = self.gripper_width()
         fault = yield from self.grip(contact - self.p.squeeze, speed, self.p.force)

@@ -25,10 +25,10 @@ def demo_trees(quick: bool) -> list[Path]:
     return [p for p in trees if p.name in QUICK_TREES] if quick else trees
 
 
-def run_demo(tree: Path, mode: str, runs_dir: Path, seed: int = 0) -> dict:
-    """One `fvtree run TREE --perception MODE --seed SEED` in its own process: its summary with the
-    exit code."""
-    command = [sys.executable, "-m", "assembly.cli", "run", str(tree), "--cell", "sim", "--perception", mode,
+def run_demo(tree: Path, mode: str, runs_dir: Path, seed: int = 0, cell: str = "sim") -> dict:
+    """One `fvtree run TREE --cell CELL --perception MODE --seed SEED` in its own process: its summary
+    with the exit code."""
+    command = [sys.executable, "-m", "assembly.cli", "run", str(tree), "--cell", cell, "--perception", mode,
                "--seed", str(seed), "--runs-dir", str(runs_dir), "--no-plots", "--no-record"]
     done = subprocess.run(command, check=False, capture_output=True, text=True)
     summaries = sorted(runs_dir.glob("*/summary.json"))

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import importlib
+import sys
 from pathlib import Path
 
-from assembly.cli.args import Subparsers
+from assembly.cli.args import POSITIVE_INT, Subparsers
+from assembly.cli.exits import EXIT_USAGE
 
 BENCHES = {
     "ticks": "assembly.bench.ticks",
@@ -15,8 +17,10 @@ BENCHES = {
     "recording": "assembly.bench.recording_cost",
     "demos": "assembly.bench.demos",
     "seeds": "assembly.bench.seeds",
+    "robustness": "assembly.bench.robustness",
     "validate": "assembly.bench.validate",
 }
+SWEEP = ("seeds", "modes", "trees", "jobs")  # the options of the benchmarks that sweep demo trees
 
 
 def add_commands(sub: Subparsers) -> None:
@@ -25,13 +29,23 @@ def add_commands(sub: Subparsers) -> None:
     b.add_argument("name", choices=sorted(BENCHES))
     b.add_argument("--out", help="output directory (default: bench/NAME)")
     b.add_argument("--quick", action="store_true", help="a short run for smoke tests")
+    b.add_argument("--seeds", type=POSITIVE_INT, help="robustness: seeds 0..N-1 per tree and mode (default 20)")
+    b.add_argument("--modes", nargs="+", choices=("signals", "pixels"), help="robustness: perception modes "
+                   "(default both)")
+    b.add_argument("--trees", nargs="+", help="robustness: demo trees by name, e.g. hold assembly (default all)")
+    b.add_argument("--jobs", type=POSITIVE_INT, default=1, help="robustness: runs at a time (default 1)")
     b.set_defaults(func=cmd_bench)
 
 
 def cmd_bench(args) -> int:
+    sweep = {name: getattr(args, name) for name in SWEEP if getattr(args, name) not in (None, 1)}
+    if sweep and args.name != "robustness":
+        print(f"fvtree bench: --{', --'.join(sweep)} apply to `fvtree bench robustness` only", file=sys.stderr)
+        return EXIT_USAGE
     module = importlib.import_module(BENCHES[args.name])
     out = Path(args.out or f"bench/{args.name}")
     out.mkdir(parents=True, exist_ok=True)
-    for path in module.run(out, quick=args.quick):
+    options = {name: getattr(args, name) for name in SWEEP} if args.name == "robustness" else {}
+    for path in module.run(out, quick=args.quick, **options):
         print(f"wrote {path}")
     return 0

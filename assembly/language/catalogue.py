@@ -140,8 +140,25 @@ def describe_scenes() -> dict[str, dict]:
     return {name: {"package": SCENE_PACKAGES.get(name, PROJECT),
                    "simulates": _first_sentence(sys.modules[build.__module__].__doc__),
                    "params": _scene_params(build), "tolerances": _tolerances(build),
-                   "targets": _targets(build), "provides": _provides(build), "skills": _skills(build), "trees": trees.get(name, [])}
+                   "targets": _targets(build), "provides": _provides(build), "skills": _skills(build), "trees": trees.get(name, []),
+                   "randomised": _randomised(name)}
             for name, build in sorted(SCENES.items())}
+
+
+def _randomised(scene: str) -> dict[str, str]:
+    """What a scene draws per seed with `world: {randomise: true}`: {group.param: 'range: why'}."""
+    from drivers.sim.scenes import randomise
+
+    return {f"{group}.{name}": text for group in randomise.groups_of(scene)
+            for name, text in randomise.describe(group).items()}
+
+
+def randomised_everywhere() -> dict[str, str]:
+    """What every simulated scene draws per seed when randomised (sensor, force sensor, world)."""
+    from drivers.sim.scenes import randomise
+
+    return {f"{group}.{name}": text for group in randomise.SHARED_GROUPS
+            for name, text in randomise.describe(group).items()}
 
 
 def scenes_table() -> str:
@@ -157,5 +174,8 @@ def scenes_table() -> str:
         if d["targets"]:
             lines.append("    targets (set by the tree): " + ", ".join(f"{k} ({v})" for k, v in d["targets"].items()))
         lines.append(f"    demo trees: {', '.join(d['trees']) or 'none'}")
+        lines += [f"    randomised {name}: {text}" for name, text in d.get("randomised", {}).items()]
         lines.append("")
+    lines.append("every scene, with `world: {randomise: true}` in the cell file (drawn per seed):")
+    lines += [f"    {name}: {text}" for name, text in randomised_everywhere().items()]
     return "\n".join(lines).rstrip() + "\n"

@@ -30,18 +30,24 @@ def speed_ctrl_gain(v_min: float, v_max: float, f_min: float, f_max: float) -> f
 
 
 class ForceChangeDetector:
-    """Fires when more than `min_markers` markers moved more than `threshold` from the
+    """Fires when more than `min_markers` markers moved more than the contact limit from the
     reference field taken over the first `reference_frames` frames (2023 gentle-grasp rule).
     Each finger's markers are compared with its own reference, index by index: markers the pipeline
     adopts after the reference (it appends markers missed at calibration, e.g. under glare) have no
-    reference and are not counted."""
+    reference and are not counted. The limit is `threshold`, raised to `noise_factor` times the rest
+    noise measured on the reference frames (per axis, of a frame against their mean, pooled over the
+    markers): a noisier skin than the one the threshold was set on (the calibration logs' rest jitter
+    spans 0.046-0.32 px) would otherwise light enough markers to fire without any touch; at 4 times
+    the noise a marker's noise crosses the limit on one frame in ~3000."""
 
-    def __init__(self, threshold: float, min_markers: int, reference_frames: int = 3):
+    def __init__(self, threshold: float, min_markers: int, reference_frames: int = 3, noise_factor: float = 4.0):
         self.threshold = threshold
         self.min_markers = min_markers
         self.reference_frames = reference_frames
+        self.noise_factor = noise_factor
         self._ref: list[tuple[np.ndarray, ...]] = []
         self._mean: list[np.ndarray] | None = None  # per finger, the reference field once its frames are in
+        self.limit = threshold  # px a marker must move to count, once the reference is in
         self.changed = 0
 
     def update(self, *marker_forces: np.ndarray) -> bool:
@@ -51,12 +57,26 @@ class ForceChangeDetector:
             return False
         if self._mean is None:  # averaged once: the reference frames do not change after
             counts = [min(len(frame[i]) for frame in self._ref) for i in range(len(marker_forces))]
-            self._mean = [np.mean([frame[i][:n] for frame in self._ref], axis=0) for i, n in enumerate(counts)]
+            frames = [np.array([frame[i][:n] for frame in self._ref], dtype=float) for i, n in enumerate(counts)]
+            self._mean = [f.mean(axis=0) for f in frames]
+            self.limit = max(self.threshold, self.noise_factor * rest_noise(frames))
         self.changed = 0
         for f, mean in zip(marker_forces, self._mean):
             n = min(len(f), len(mean))
-            self.changed += int(np.count_nonzero(np.linalg.norm(f[:n] - mean[:n], axis=1) > self.threshold))
+            self.changed += int(np.count_nonzero(np.linalg.norm(f[:n] - mean[:n], axis=1) > self.limit))
         return self.changed > self.min_markers
+
+
+def rest_noise(fingers: list[np.ndarray]) -> float:
+    """Per-axis standard deviation of one frame's marker forces against the mean of `fingers`' reference
+    frames (each an array frames x markers x axes), pooled over fingers, markers and axes (0 with fewer
+    than two frames)."""
+    deviations = [(f - np.nanmean(f, axis=0)) ** 2 for f in fingers if len(f) >= 2 and f.size]
+    if not deviations:
+        return 0.0
+    n = len(fingers[0])
+    spread = np.nanmean(np.concatenate([d.ravel() for d in deviations])) * n / (n - 1)
+    return float(np.sqrt(spread * (1.0 + 1.0 / n))) if np.isfinite(spread) else 0.0
 
 
 class MovingAverage:

@@ -21,7 +21,7 @@ from drivers.sim.devices.arm_motion import ArmMotion
 from drivers.sim.devices.gripper import SimGripper
 from drivers.sim.models.appearance import Look, look_from
 from drivers.sim.models.force_sensor import ForceSensedArm, ForceSensorConfig
-from drivers.sim.scenes import build_world, world_settings
+from drivers.sim.scenes import build_world, cell_profile, randomise, world_settings
 
 FIELDS = {"kind", "name", "home", "safety", "supervision", "gripper", "sensor", "world", "perception", "pixel_workers",
           "force_sensor", "arm"}
@@ -69,9 +69,12 @@ def build_sim_cell(path: Path, data: dict, request: CellRequest) -> Cell:
     closers = [sense.close] if mode == "pixels" else []  # pixel mode's worker processes
     # The TCP force the skills and the safety layer read: the scene's force through a UR-class sensor.
     ft = config_from(path, "force_sensor", ForceSensorConfig, section(path, data, "force_sensor"))
+    if randomise.enabled(settings[1]):  # drawn per seed; the skills read the profile the file names
+        ft = randomise.force_sensor(ft, request.seed)
+    profile = cell_profile(path, settings[0])[0] if randomise.enabled(settings[1]) else sensors["left"].profile
     sensed = ForceSensedArm(arm, clock, ft, request.seed)
     return Cell(data.get("name", "sim"), SafeArm(sensed, limits, clock), SafeGripper(gripper), clock, sense,
-                world=world, closers=closers, sensor_profile=sensors["left"].profile,
+                world=world, closers=closers, sensor_profile=profile,
                 zero_force_sensor=sensed.zero_ft_sensor)
 
 

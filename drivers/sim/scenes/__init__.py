@@ -12,7 +12,7 @@ from drivers.cell_file import CellFileError, check_values, number, section
 from drivers.protocols import Clock, PerceptionSource, SceneArm, SceneGripper, World
 from drivers.sim.models.fingervision_model import SensorModel
 from drivers.sim.models.skin import Skin
-from drivers.sim.scenes import assembly, followme, handover, handover_press, hold, press, stick, stir
+from drivers.sim.scenes import assembly, followme, handover, handover_press, hold, press, randomise, stick, stir
 from fvfiles.errors import did_you_mean
 from perception.sensor_profile import DEFAULT_PROFILE, NUMBERS, SensorProfile, SensorProfileError, load_profile
 from perception.state import FINGERS
@@ -36,7 +36,7 @@ SCENE_PACKAGES: dict[str, str] = dict.fromkeys(SCENES, "fvtree")
 
 # `profile`: a profile's name or path; any of the profile's numbers overrides the profile's value
 SENSOR_FIELDS = set(SensorModel.__dataclass_fields__) - {"finger", "seed"} | set(NUMBERS) | {"appearance"}
-WORLD_FIELDS = set(assembly.SceneConfig.__dataclass_fields__) - {"seed"}
+WORLD_FIELDS = set(assembly.SceneConfig.__dataclass_fields__) - {"seed"} | {randomise.RANDOMISE}
 # What each setting may be: checked when the cell file is read (a string for a number would fail mid-run).
 _PROFILE_VALUES = {name: ({"type": "array", "items": number(1, 4096), "minItems": 2, "maxItems": 2}
                           if name == "image_size" else number(0.0, 1e6)) for name in NUMBERS}
@@ -46,7 +46,8 @@ SENSOR_VALUES = {**_PROFILE_VALUES, "noise_px": {"anyOf": [number(0.0, 100.0), {
                  "appearance": {}}  # a mapping of look fields or `random`: checked by drivers/sim/cell.py
 WORLD_VALUES = {"ground_stiffness": number(0.0, 1e8, above=True), "contact_stiffness": number(0.0, 1e8, above=True),
                 "friction": number(0.0, 10.0), "view_half": number(0.0, 0.1, above=True),
-                "finger_reach": number(0.0, 0.2, above=True), "force_noise": number(0.0, 1.0)}
+                "finger_reach": number(0.0, 0.2, above=True), "force_noise": number(0.0, 1.0),
+                randomise.RANDOMISE: {"type": "boolean"}}
 
 
 def world_settings(path: Path, data: dict, where: str = "") -> tuple[dict, dict]:
@@ -70,12 +71,9 @@ def sensor_profile(path: Path, name: object) -> SensorProfile:
         raise CellFileError(path, "sensor.profile", str(exc)) from None
 
 
-def build_world(path: Path, settings: tuple[dict, dict], arm: SceneArm, gripper: SceneGripper, clock: Clock,
-                scene: str, scene_args: dict, seed: int) -> tuple[World, dict[str, SensorModel], PerceptionSource]:
-    """The scene a tree needs around `arm` and `gripper`, with the (sensor, world) `settings`:
-    returns the world, its two FingerVision sensor models and the signal-level perception source
-    reading them through each fingertip's viscoelastic skin (`drivers.sim.models.skin`)."""
-    sensor_cfg, world_cfg = settings
+def cell_profile(path: Path, sensor_cfg: dict) -> tuple[SensorProfile, dict]:
+    """The sensor profile a cell file's `sensor:` settings name, with their overrides of its numbers,
+    and the settings left for the sensor model; CellFileError naming the field."""
     sensor_cfg = dict(sensor_cfg)
     profile = sensor_profile(path, sensor_cfg.pop("profile", DEFAULT_PROFILE))
     sensor_cfg.pop("appearance", None)  # pixel mode's camera look (drivers/sim/cell.py)
@@ -86,6 +84,19 @@ def build_world(path: Path, settings: tuple[dict, dict], arm: SceneArm, gripper:
             profile = dataclasses.replace(profile, **changed)
         except (SensorProfileError, TypeError) as exc:
             raise CellFileError(path, f"sensor.{next(iter(changed))}", str(exc)) from None
+    return profile, sensor_cfg
+
+
+def build_world(path: Path, settings: tuple[dict, dict], arm: SceneArm, gripper: SceneGripper, clock: Clock,
+                scene: str, scene_args: dict, seed: int) -> tuple[World, dict[str, SensorModel], PerceptionSource]:
+    """The scene a tree needs around `arm` and `gripper`, with the (sensor, world) `settings`:
+    returns the world, its two FingerVision sensor models and the signal-level perception source
+    reading them through each fingertip's viscoelastic skin (`drivers.sim.models.skin`). With
+    `world: {randomise: true}` the sensor and the scene are drawn for `seed` (`randomise`)."""
+    profile, sensor_cfg = cell_profile(path, settings[0])
+    world_cfg = randomise.world_settings(settings[1], seed)
+    if randomise.enabled(world_cfg):
+        profile = randomise.sensor_profile(profile, seed)
     if scene not in SCENES:
         raise CellFileError(path, "scene", f"no simulated scene {scene!r}",
                             did_you_mean(scene, SCENES) or f"known: {', '.join(sorted(SCENES))}")

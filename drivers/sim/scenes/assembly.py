@@ -28,6 +28,7 @@ import numpy as np
 from drivers.protocols import SceneArm, SceneGripper
 from drivers.sim.models.fingervision_model import FingerContact
 from drivers.sim.models.plate import BeamPlate
+from drivers.sim.scenes import randomise
 from drivers.sim.scenes.base import Scene
 from drivers.sim.scenes.scene_file import plate_loads, scene_file_of
 from drivers.sim.transforms import compose, homogeneous, inverse_entries, pose_of, rigid_inverse, rotation_entries
@@ -527,15 +528,21 @@ def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: i
         pose = np.array(spec["pick_pose"], dtype=float)
         pose[:2] += rng.uniform(-0.008, 0.008, 2)  # where the element really lies
         true_length = length + rng.uniform(-0.003, 0.003)
-        elements[spec["id"]] = Element(spec["id"], true_length, width, depth,
-                                       spec.get("mass", 0.4), pose, plate=spec.get("plate", ""))
+        mass = randomise.params(Element, "assembly.element", {"mass": spec.get("mass", 0.4)}, world, seed,
+                                spec["id"])["mass"]
+        elements[spec["id"]] = Element(spec["id"], true_length, width, depth, mass, pose, plate=spec.get("plate", ""))
     design_file = args.get("design_file")
     spans = {spec["id"]: spec["span"] for spec in args.get("plates", [])}
     loads = plate_loads(scene_file_of(Path(design_file)), spans) if design_file else {}
     plates = {}
     for spec in args.get("plates", []):
-        beam = BeamPlate(span=spec["span"], **loads.get(spec["id"], {}))
-        plates[spec["id"]] = Plate(spec["id"], tuple(map(float, spec["origin"])),
-                                   spec.get("width", 0.3), beam)
-    config = SceneConfig(seed=seed, **world)
+        beam = BeamPlate(span=spec["span"], **randomise.params(BeamPlate, "assembly.plate", loads.get(spec["id"], {}),
+                                                               world, seed, spec["id"]))
+        origin = tuple(map(float, spec["origin"]))
+        if randomise.enabled(world):  # the supports where they were really built
+            shift = randomise.draw("assembly.support", seed, instance=spec["id"])
+            origin = tuple(v + shift[d] for v, d in zip(origin, ("dx", "dy", "dz")))
+        plates[spec["id"]] = Plate(spec["id"], origin, spec.get("width", 0.3), beam)
+    config = SceneConfig(seed=seed, **randomise.params(SceneConfig, "assembly", randomise.scene_config(world), world,
+                                                       seed))
     return AssemblyScene(arm, gripper, elements, plates, config)

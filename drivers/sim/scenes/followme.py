@@ -26,6 +26,7 @@ import numpy as np
 
 from drivers.protocols import SceneArm, SceneGripper
 from drivers.sim.models.objects import GrippedObject
+from drivers.sim.scenes import randomise
 from drivers.sim.scenes.base import Scene
 from drivers.sim.scenes.grip import (
     Grip,
@@ -207,6 +208,7 @@ def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: i
     """Scene args: axis (x|y|z, tool axes), direction (pull|push), distance (m), move_time (s),
     object (wood, glass, rubber, foam, steel; default a neutral block with the cell's friction)."""
     grip, material = object_grip(args, world)
+    given = {"distance": args.get("distance", 0.12), "move_time": args.get("move_time", 4.0)}
     return FollowMeScene(arm, gripper, axis=args.get("axis", "x"), direction=args.get("direction", "pull"),
-                         distance=args.get("distance", 0.12), move_time=args.get("move_time", 4.0),
+                         **randomise.params(FollowMeScene, "followme", given, world, seed),
                          seed=seed, grip=grip, material=material)

@@ -15,6 +15,7 @@ import numpy as np
 
 from drivers.protocols import SceneArm, SceneGripper
 from drivers.sim.models.fingervision_model import FingerContact
+from drivers.sim.scenes import randomise
 from drivers.sim.scenes.base import Scene
 from drivers.sim.scenes.grip import Grip, empty_contacts, pad_contacts, pad_view, slip_signal, step_hand, tool_rotation
 
@@ -125,5 +126,7 @@ class HandoverScene(Scene):
 
 def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> HandoverScene:
     """Scene args: mass (kg), give_after (s; negative: the person never takes it back)."""
-    return HandoverScene(arm, gripper, mass=args.get("mass", 0.3), give_after=args.get("give_after", 3.0),
+    given = {"mass": args.get("mass", 0.3)}
+    return HandoverScene(arm, gripper, give_after=args.get("give_after", 3.0),
+                         **randomise.params(HandoverScene, "handover", given, world, seed),
                          grip=Grip(friction=world.get("friction", 0.8)))

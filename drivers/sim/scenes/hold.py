@@ -14,6 +14,7 @@ import numpy as np
 
 from drivers.protocols import SceneArm, SceneGripper
 from drivers.sim.models.objects import GrippedObject
+from drivers.sim.scenes import randomise
 from drivers.sim.scenes.base import Scene
 from drivers.sim.scenes.grip import (
     Grip,
@@ -114,5 +115,6 @@ def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: i
     """Scene args: mass (kg), extra_load (N), object (wood, glass, rubber, foam, steel; default a
     neutral box with the cell's friction)."""
     grip, material = object_grip(args, world)
-    return HoldScene(arm, gripper, mass=args.get("mass", 0.5), extra_load=args.get("extra_load", 25.0),
+    given = {"mass": args.get("mass", 0.5), "extra_load": args.get("extra_load", 25.0)}
+    return HoldScene(arm, gripper, **randomise.params(HoldScene, "hold", given, world, seed),
                      grip=grip, material=material)

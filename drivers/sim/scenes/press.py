@@ -25,6 +25,7 @@ import numpy as np
 
 from drivers.protocols import SceneArm, SceneGripper
 from drivers.sim.models.objects import GrippedObject
+from drivers.sim.scenes import randomise
 from drivers.sim.scenes.grip import (
     Grip,
     PickedScene,
@@ -152,6 +153,8 @@ def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: i
     """Scene args: mass (kg), contact_stiffness (N/m; default the object's), scale_noise (N),
     object (wood, glass, rubber, foam, steel; default a neutral stick with the cell's friction)."""
     grip, material = object_grip(args, world)
-    return PressScene(arm, gripper, mass=args.get("mass", 0.05),
-                      contact_stiffness=args.get("contact_stiffness", material.stiffness if material else 4000.0),
-                      scale_noise=args.get("scale_noise", 0.1), seed=seed, grip=grip, material=material)
+    given = {"mass": args.get("mass", 0.05),
+             "contact_stiffness": args.get("contact_stiffness", material.stiffness if material else 4000.0),
+             "scale_noise": args.get("scale_noise", 0.1)}
+    return PressScene(arm, gripper, **randomise.params(PressScene, "press", given, world, seed), seed=seed,
+                      grip=grip, material=material)

@@ -19,6 +19,7 @@ from typing import ClassVar
 import numpy as np
 
 from drivers.protocols import SceneArm, SceneGripper
+from drivers.sim.scenes import randomise
 from drivers.sim.scenes.base import Scene
 from drivers.sim.scenes.grip import empty_contacts, pad_contacts, pad_view, slip_signal, step_hand, tool_rotation
 
@@ -155,17 +156,20 @@ class HangScene(StickScene):
 
 def builder(preset: str) -> Callable[..., StickScene]:
     """A scene builder for one of PRESETS (`armrot`: the stick must end hanging; the others: it
-    must turn in the hand by the tree's `turn_deg`); scene args `mass` and `com` override it."""
+    must turn in the hand by the tree's `turn_deg`); scene args `mass` and `com` override it, and a
+    randomised world draws them (`drivers.sim.scenes.randomise`)."""
     if preset == "armrot":
         def build_hang(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> HangScene:
-            return HangScene(arm, gripper, friction=world.get("friction", 0.8), **_spec(preset, args))
+            return HangScene(arm, gripper, friction=world.get("friction", 0.8), **_spec(preset, args, world, seed))
         return build_hang
 
     def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> TurnScene:
-        return TurnScene(arm, gripper, friction=world.get("friction", 0.8), **_spec(preset, args))
+        return TurnScene(arm, gripper, friction=world.get("friction", 0.8), **_spec(preset, args, world, seed))
     return build
 
 
-def _spec(preset: str, args: dict) -> dict:
-    """The preset's mass and centre of mass, with the scene args' over them."""
-    return {**PRESETS[preset], **{k: args[k] for k in ("mass", "com") if k in args}}
+def _spec(preset: str, args: dict, world: dict, seed: int) -> dict:
+    """The preset's mass and centre of mass, with the scene args' over them, drawn when the world
+    is randomised."""
+    spec = {**PRESETS[preset], **{k: args[k] for k in ("mass", "com") if k in args}}
+    return randomise.params(StickScene, "stick", spec, world, seed)

@@ -27,6 +27,7 @@ from typing import ClassVar
 import numpy as np
 
 from drivers.protocols import SceneArm, SceneGripper
+from drivers.sim.scenes import randomise
 from drivers.sim.scenes.grip import (
     PickedScene,
     pad_contacts,
@@ -207,5 +208,6 @@ class StirScene(PickedScene):
 
 def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> StirScene:
     """Scene args: surface_z (m), bowls {substance: [x, y]}."""
-    return StirScene(arm, gripper, bowls=args.get("bowls", dict(BOWLS)), surface_z=args.get("surface_z", 0.25),
+    given = randomise.params(StirScene, "stir", {"surface_z": args.get("surface_z", 0.25)}, world, seed)
+    return StirScene(arm, gripper, bowls=args.get("bowls", dict(BOWLS)), **given,
                      friction=world.get("friction", 0.8), seed=seed)
