@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 from drivers.protocols import SceneArm, SceneGripper
+from drivers.sim.scenes import randomise
 from drivers.sim.scenes.base import Scene
 from drivers.sim.scenes.grip import Grip
 from drivers.sim.scenes.handover import HandoverScene
@@ -65,6 +66,8 @@ class HandoverPressScene(Scene):
 def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> HandoverPressScene:
     """Scene args: mass (kg) of the stick (the press scene's, 0.05)."""
     friction = world.get("friction", 0.8)
-    handover = HandoverScene(arm, gripper, mass=args.get("mass", 0.05), width=0.02, give_after=-1.0,
+    given = {"mass": args.get("mass", 0.05)}  # the person's part drawn as the handover scene's when randomised
+    handover = HandoverScene(arm, gripper, width=0.02, give_after=-1.0,
+                             **randomise.params(HandoverScene, "handover", given, world, seed),
                              grip=Grip(friction=friction))
     return HandoverPressScene(arm, gripper, handover, friction=friction, seed=seed)

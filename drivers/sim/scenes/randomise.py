@@ -155,7 +155,8 @@ GROUPS: dict[str, dict[str, Range]] = {
 }
 ADDED = {"stir": {"surface_z"}}  # drawn values added to the nominal, not put in its place
 SCENE_GROUPS = {"assembly": ("assembly", "assembly.element", "assembly.plate", "assembly.support"),
-                "inhand": ("stick",), "inhand_light": ("stick",), "armrot": ("stick",)}  # else the scene's name
+                "inhand": ("stick",), "inhand_light": ("stick",), "armrot": ("stick",),
+                "handover_press": ("handover",)}  # else the scene's name
 SHARED_GROUPS = ("sensor", "force_sensor", "world")
 
 
