@@ -7,7 +7,7 @@ instead of "finding" contact in the air. A scene that declares nothing (a plug-i
 from __future__ import annotations
 
 import typing
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 
 from assembly.errors import TreeError
 from assembly.language.validator import NodeSpec
@@ -39,7 +39,7 @@ def scene_errors(root: NodeSpec, scene: str) -> list[TreeError]:
     if has is None:
         return []
     errors = []
-    for spec in _skills(root):
+    for spec in root.skills():
         for need in SKILLS[spec.type].NEEDS:
             if need not in has:
                 others = sorted(name for name, b in SCENES.items() if need in (provides(b) or ()))
@@ -49,9 +49,3 @@ def scene_errors(root: NodeSpec, scene: str) -> list[TreeError]:
                     hint=f"scenes with {need}: {', '.join(others) or 'none'}; `fvtree scenes` lists what each supports"))
     return errors
 
-
-def _skills(spec: NodeSpec) -> Iterator[NodeSpec]:
-    if spec.kind == "skill":
-        yield spec
-    for child in spec.children:
-        yield from _skills(child)

@@ -7,8 +7,6 @@ be reached, e.g. a lift of [0, 0, 50] typed in mm)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import numpy as np
 
 from assembly.design.link.workspace import Workspace
@@ -25,7 +23,7 @@ def reach_errors(root: NodeSpec, cell: str) -> list[TreeError]:
     its node."""
     workspace = Workspace.of_cell(cell)
     errors = []
-    for spec in _skills(root):
+    for spec in root.skills():
         for key, param in SKILLS[spec.type].PARAMS.items():
             problem = offset_or_pose_problem(param, spec.args["params"].get(key), workspace.limits)
             if problem:
@@ -51,10 +49,3 @@ def offset_or_pose_problem(param: Param, value: object, limits: SafetyLimits) ->
                                            f"in it ({', '.join(too_long)})")
     return None
 
-
-def _skills(spec: NodeSpec) -> Iterator[NodeSpec]:
-    """The skill nodes under `spec`, itself first."""
-    if spec.kind == "skill":
-        yield spec
-    for child in spec.children:
-        yield from _skills(child)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 import reprlib
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -50,6 +50,13 @@ class NodeSpec:
     file: str = ""
     line: int = 0
     type: str = ""  # the skill type or subtree ref
+
+    def skills(self) -> Iterator[NodeSpec]:
+        """The skill nodes under this one, itself first, in tick order."""
+        if self.kind == "skill":
+            yield self
+        for child in self.children:
+            yield from child.skills()
 
 
 @dataclass
