@@ -32,6 +32,7 @@ import os
 import re
 import shutil
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -165,8 +166,8 @@ def mutated(draw: st.DrawFn, doc: Any, keys: list[str]) -> Any:
     return doc
 
 
-def dump_yaml(doc: Any) -> str:
-    """YAML text of `doc`, with each `Raw` value written as it is."""
+def _placeholders(doc: Any, key: Callable[[Any], Any]) -> tuple[Any, list[str]]:
+    """`doc` with each `Raw` value replaced by a placeholder `RAW<i>RAW` (keys through `key`), and the raw texts."""
     raws: list[str] = []
 
     def swap(value: Any) -> Any:
@@ -174,29 +175,24 @@ def dump_yaml(doc: Any) -> str:
             raws.append(str(value))
             return f"RAW{len(raws) - 1}RAW"
         if isinstance(value, dict):
-            return {k: swap(v) for k, v in value.items()}
+            return {key(k): swap(v) for k, v in value.items()}
         if isinstance(value, list):
             return [swap(v) for v in value]
         return value
-    text = yaml.safe_dump(swap(doc), sort_keys=False, allow_unicode=True, width=10_000)
+    return swap(doc), raws
+
+
+def dump_yaml(doc: Any) -> str:
+    """YAML text of `doc`, with each `Raw` value written as it is."""
+    swapped, raws = _placeholders(doc, lambda k: k)
+    text = yaml.safe_dump(swapped, sort_keys=False, allow_unicode=True, width=10_000)
     return re.sub(r"RAW(\d+)RAW", lambda m: raws[int(m.group(1))], text)
 
 
 def dump_json(doc: Any) -> str:
     """JSON text of `doc` (Raw values written as they are; NaN and Infinity as Python writes them)."""
-    raws: list[str] = []
-
-    def swap(value: Any) -> Any:
-        if isinstance(value, Raw):
-            raws.append(str(value))
-            return f"RAW{len(raws) - 1}RAW"
-        if isinstance(value, dict):
-            return {"null" if k is None else str(k): swap(v) for k, v in value.items()}
-        if isinstance(value, list):
-            return [swap(v) for v in value]
-        return value
-    text = json.dumps(swap(doc), indent=1)
-    return re.sub(r'"RAW(\d+)RAW"', lambda m: raws[int(m.group(1))], text)
+    swapped, raws = _placeholders(doc, lambda k: "null" if k is None else str(k))
+    return re.sub(r'"RAW(\d+)RAW"', lambda m: raws[int(m.group(1))], json.dumps(swapped, indent=1))
 
 
 # ---- the entry points -------------------------------------------------------------------------------------
