@@ -101,7 +101,8 @@ def test_every_node_kind_round_trips_and_the_xml_is_valid(tmp_path):
                      '<ForceSuccess name="optional">', 'map="failure:success;running:running"',
                      '<Parallel name="both" success_count="-1" failure_count="1">', 'name="any" success_count="1"',
                      '<FvParallel name="chosen" policy="selected" synchronise="false" selected="c">',
-                     '<Guard name="while_light" _while="@fv_left__force__2 &lt;= 10.0">',
+                     '<ReactiveSequence name="while_light">',
+                     '<ScriptCondition name="while_light.while" code="@fv_left__force__2 &lt;= 10.0" />',
                      'code="@fv_left__force__2 &lt; limit"', 'num_attempts="{tries}"', '<Timeout name="quick" msec="2500">',
                      '<BlackboardCheck name="built" key="/task/asbuilt" op="exists" />',
                      'code="@robot_pose__m1 != 0.0"', 'code="@fv_left__health_reason == \'peas\'"'):
@@ -250,3 +251,38 @@ def test_subtree_ports_declared_the_groot2_way_type_a_file_without_our_metadata(
     original, returned = load_tree(tree), load_tree(back)
     assert returned.subtrees["classify_bowl"].params["at"].type == "vector"
     assert outline(returned) == outline(original)  # the cell settings went with the metadata; the nodes did not
+
+
+def test_a_guard_a_script_cannot_say_is_a_reactive_sequence_with_a_blackboard_check(tmp_path):
+    tree = write(tmp_path, "g.yaml", """\
+        version: 1
+        name: g
+        root:
+          guard: while_built
+          while: {key: /task/asbuilt, op: exists}
+          child: {skill: move_to, name: up, params: {offset: [0.0, 0.0, 0.05]}}
+        """)
+    xml = write(tmp_path, "g.xml", export_tree(tree, tmp_path))
+    XSD.validate(str(xml))
+    assert '<BlackboardCheck name="while_built.while" key="/task/asbuilt" op="exists" />' in xml.read_text()
+    back = write(tmp_path, "back.yaml", import_xml(xml, tmp_path / "back.yaml"))
+    assert differences(load_tree(tree, dataflow=False), load_tree(back, dataflow=False)) == []
+
+
+def test_a_reactive_sequence_is_a_guard_only_with_the_mark_and_a_file_s_old_guard_still_imports(tmp_path):
+    """The exporter's mark is the condition's name `NAME.while`; other reactive sequences stay
+    sequences; `<Guard _while>` (files exported before) still imports as a guard."""
+    head = '<root BTCPP_format="4" main_tree_to_execute="t"><BehaviorTree ID="t">'
+    child = '<move_to name="up" offset="0.0;0.0;0.05"/>'
+    cases = {'<ReactiveSequence name="g"><ScriptCondition name="g.while" code="@gripper_width &gt; 0.01"/>'
+             f'{child}</ReactiveSequence>': "guard",
+             '<ReactiveSequence name="g"><ScriptCondition name="other" code="@gripper_width &gt; 0.01"/>'
+             f'{child}</ReactiveSequence>': "sequence",
+             f'<Guard name="g" _while="@gripper_width &gt; 0.01">{child}</Guard>': "guard"}
+    for body, kind in cases.items():
+        xml = write(tmp_path, "t.xml", head + body + "</BehaviorTree></root>")
+        doc = load_tree(write(tmp_path, "t.yaml", import_xml(xml, tmp_path / "t.yaml")), dataflow=False)
+        assert (doc.root.kind, doc.root.path) == (kind, "g")
+        if kind == "guard":
+            assert doc.root.args["while"] == {"key": "/gripper/width", "op": "gt", "value": 0.01}
+            assert [c.path for c in doc.root.children] == ["g/up"]

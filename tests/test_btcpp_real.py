@@ -213,24 +213,31 @@ def test_fvtree_s_own_kinds_run_in_bt_cpp_as_in_fvtree(library, tmp_path, fails)
     assert (btcpp.status, reached(btcpp) & LEAVES) == (result.status, ticked)
 
 
-def test_a_guard_whose_condition_is_false_is_skipped_in_bt_cpp_where_fvtree_fails_it(library, tmp_path):
-    """The known difference docs/btcpp.md states: BT.CPP's `_while` makes a false guard SKIPPED, and
-    the sequence goes on; fvtree's guard fails, and so does the sequence."""
-    tree = tmp_path / "guarded.yaml"
-    tree.write_text("version: 1\nname: guarded\ncell: {tick_hz: 30, scene: hold}\nroot:\n  sequence: top\n"
-                    "  memory: true\n  children:\n    - guard: only_when_slipping\n"
-                    "      while: {key: /fv/left.slip, op: gt, value: 0.5}\n"
-                    "      child: {skill: move_to, name: a, params: {offset: [0.0, 0.0, 0.01]}}\n"
-                    "    - {skill: move_to, name: after, params: {offset: [0.0, 0.0, 0.01]}}\n")
-    xml = exported(tree, tmp_path)
-    btcpp = library.run(xml)  # /fv/left.slip reads 0.0 there: the condition is false
-    assert (btcpp.status, reached(btcpp) & {"a", "after"}) == ("SUCCESS", {"after"})
+@pytest.mark.parametrize("op", ["gt", "le"])
+def test_a_guard_runs_in_bt_cpp_as_in_fvtree(library, tmp_path, op):
+    """A guard (exported as a ReactiveSequence of its condition and its child) in a sequence with
+    memory: with its condition false (gt) BT.CPP fails it and the sequence, as fvtree does, ticking
+    neither leaf (BT.CPP's own `_while` would skip it and go on); with it true (le) both run."""
     from assembly.run.options import RunOptions
     from assembly.run.session import Run
 
+    tree = tmp_path / "guarded.yaml"
+    tree.write_text("version: 1\nname: guarded\ncell: {tick_hz: 30, scene: hold}\nroot:\n  sequence: top\n"
+                    "  memory: true\n  children:\n    - guard: only_when_slipping\n"
+                    f"      while: {{key: /fv/left.slip, op: {op}, value: 0.5}}\n"
+                    "      child: {skill: move_to, name: a, params: {offset: [0.0, 0.0, 0.01]}}\n"
+                    "    - {skill: move_to, name: after, params: {offset: [0.0, 0.0, 0.01]}}\n")
+    xml = exported(tree, tmp_path)
+    assert "<Guard" not in xml and "_while" not in xml
+    btcpp = library.run(xml)  # /fv/left.slip reads 0.0 there
     with Run(tree, RunOptions(runs_dir=tmp_path / "runs", quiet=True, plots=False, record=False)) as run:
-        result = run.loop()  # the held box does not slip: the condition is false
-    assert (result.status, result.where) == ("FAILURE", "top/only_when_slipping")
+        result = run.loop()  # the held box does not slip
+        log = [json.loads(line) for line in (run.run_dir / "transitions.jsonl").read_text().splitlines()]
+    ticked = {r["node"].rsplit("/", 1)[-1] for r in log if r["to"] != "INVALID"} & {"a", "after"}
+    assert (btcpp.status, reached(btcpp) & {"a", "after"}) == (result.status, ticked)
+    assert (result.status, ticked) == (("FAILURE", set()) if op == "gt" else ("SUCCESS", {"a", "after"}))
+    if op == "gt":
+        assert result.where == "top/only_when_slipping"
 
 
 def test_bt_cpp_refuses_what_it_should(library, tmp_path):

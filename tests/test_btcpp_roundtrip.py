@@ -63,4 +63,4 @@ def test_the_nodes_model_lists_every_skill_with_typed_ports(tmp_path, shipped_de
     assert set(SKILLS) <= set(actions)
     ports = {p["@name"]: p for p in actions["gentle_grasp"]["input_port"]}
     assert ports["force"]["@type"] == "double" and "[N]" in ports["force"]["$"]
-    assert {d["@ID"] for d in model["Decorator"]} >= {"ForEachElement", "StatusMap", "Guard"}
+    assert {d["@ID"] for d in model["Decorator"]} >= {"ForEachElement", "StatusMap"}

@@ -202,6 +202,21 @@ def test_the_full_tree_is_what_btcpp_s_own_publisher_sends(btcpp, tree):
     (ID, _fullpath) in the same order, the same nodes (tag, name, _uid) in each, the same _fullpath
     where BT.CPP writes one (SubTree nodes), and every port of ours with BT.CPP's value (BT.CPP
     adds the ports left to their defaults)."""
+    assert_same_full_tree(btcpp, tree)
+
+
+def test_a_guard_s_full_tree_is_what_btcpp_s_own_publisher_sends(btcpp, tmp_path):
+    """A guard is exported as a ReactiveSequence of its condition and its child: its condition
+    (BT.CPP's node only) has a uid of its own there too."""
+    tree = tmp_path / "guarded.yaml"
+    tree.write_text("version: 1\nname: guarded\nroot:\n  sequence: top\n  memory: true\n  children:\n"
+                    "    - guard: light\n      while: {key: /fv/left.slip, op: lt, value: 0.5}\n"
+                    "      child: {skill: move_to, name: a, params: {offset: [0.0, 0.0, 0.01]}}\n"
+                    "    - {skill: move_to, name: b, params: {offset: [0.0, 0.0, 0.01]}}\n")
+    assert_same_full_tree(btcpp, tree)
+
+
+def assert_same_full_tree(btcpp, tree: Path) -> None:
     from assembly.interop.btcpp import export_tree
     from assembly.interop.groot2.tree_xml import monitor_tree
 

@@ -29,9 +29,6 @@ CUSTOM_NODES: dict[str, tuple[str, dict[str, tuple[str, str, str | None]], str]]
     "StatusMap": (
         "Decorator", {"map": ("std::string", "status pairs 'from:to;...' of success, failure, running", None)},
         "fvtree status_map: returns the child's status translated through the map"),
-    "Guard": (
-        "Decorator", {},
-        "fvtree guard: ticks the child while its _while script holds, halting it and failing when it turns false"),
     "FvParallel": (
         "Control",
         {"policy": ("std::string", "all, one or selected", None),

@@ -29,7 +29,7 @@ from assembly.interop.btcpp.values import (
     literal,
     read_condition_script,
 )
-from assembly.interop.btcpp.writer import DEFAULTS_ATTR, rebase
+from assembly.interop.btcpp.writer import DEFAULTS_ATTR, guard_condition_name, rebase
 from assembly.language.reader import load_tree
 from assembly.language.validator import known_blackboard_keys
 from behaviours.skill_kit.model_files import UsesModel
@@ -200,11 +200,20 @@ class _Reader:
                         did_you_mean(x.tag, [*SKILLS, *COMPOSITES]) or "run 'fvtree skills' to list the skills")
         return None
 
-    def _composite(self, x: XmlNode) -> dict:
+    def _composite(self, x: XmlNode) -> dict | None:
         """A (reactive) Sequence or Fallback: a sequence or selector, with memory unless reactive."""
         self.own_attrs(x, {"_while"})
+        if _is_guard(x):
+            return self._marked_guard(x)
         kind, memory = COMPOSITES[x.tag]
         return {kind: _name(x), "memory": memory, "children": self.children(x, one=False)}
+
+    def _marked_guard(self, x: XmlNode) -> dict | None:
+        """The exporter's guard: a ReactiveSequence of its condition (named `NAME.while`) and its child."""
+        check, child = (self.node(c) for c in x.children)
+        if check is None or child is None:
+            return None
+        return {"guard": _name(x), "while": {k: v for k, v in check.items() if k != "condition"}, "child": child}
 
     def _parallel(self, x: XmlNode) -> dict | None:
         """BT.CPP's Parallel, for the success and failure counts an fvtree policy has."""
@@ -260,7 +269,8 @@ class _Reader:
         return {"status_map": _name(x), "map": mapping, "child": self._child(x)}
 
     def _guard(self, x: XmlNode) -> dict | None:
-        """The exporter's Guard: a guard, its condition the _while script."""
+        """The Guard of files exported before guards were ReactiveSequences: a guard, its
+        condition the _while script."""
         self.own_attrs(x, {"_while"})
         if "_while" not in x.attrs:
             self.refuse(x, "<Guard> needs a _while script")
@@ -379,6 +389,17 @@ CONVERTERS: dict[str, Callable[[_Reader, XmlNode], dict | None]] = {
 def _name(x: XmlNode) -> str:
     """The node's name: its `name` attribute, else its tag."""
     return x.attrs.get("name", x.tag)
+
+
+def _is_guard(x: XmlNode) -> bool:
+    """Whether `x` is an exported guard: a ReactiveSequence of two nodes, the first a plain condition
+    named after it (`NAME.while`). Any such sequence behaves as the guard it is read as."""
+    if x.tag != "ReactiveSequence" or len(x.children) != 2:
+        return False
+    check = x.children[0]
+    plain = {"name", "code"} if check.tag == "ScriptCondition" else {"name", "key", "op", "value"}
+    return (check.tag in ("ScriptCondition", "BlackboardCheck") and set(check.attrs) - {"_uid", "_fullpath"} <= plain
+            and check.attrs.get("name") == guard_condition_name(_name(x)))
 
 
 def _kind_key(node: dict) -> str:

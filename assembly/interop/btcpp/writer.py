@@ -6,7 +6,9 @@ ports, every param the instance leaves to its default written out too (BT.CPP ha
 for it that its XSD allows), named in the instance's `_fvtree_defaults` attribute so that the
 importer leaves them out again. What BT.CPP's XML cannot hold (the cell settings, the design
 model, the subtrees' typed param declarations) travels in an `<!-- fvtree {json} -->` comment,
-the first thing inside `<root>`, which BT.CPP (tinyxml2), Groot2 and XSD validation skip.
+the first thing inside `<root>`, which BT.CPP (tinyxml2), Groot2 and XSD validation skip. A guard
+is a `ReactiveSequence` of its condition (named `GUARD.while`, the mark the importer reads) and its
+child, which fails as ours does when the condition is false (BT.CPP's `_while` would skip it).
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from fvfiles.yaml_source import Located, load_file
 
 META_TAG = "fvtree"  # the metadata comment is `<!-- fvtree {json} -->`
 DEFAULTS_ATTR = "_fvtree_defaults"  # SubTree ports written only because the param has a default
+GUARD_MARK = ".while"  # a guard is a ReactiveSequence NAME whose first child, its condition, is named NAME.while
 MEMORY_TAGS = {("sequence", True): "Sequence", ("sequence", False): "ReactiveSequence",
                ("selector", True): "Fallback", ("selector", False): "ReactiveFallback"}
 # (policy, synchronise) of the parallels BT.CPP's Parallel spells: -> (success_count, failure_count)
@@ -118,12 +121,11 @@ class _Writer:
         return self._element("StatusMap", name, map=";".join(f"{k}:{v}" for k, v in pairs))
 
     def _guard(self, node, path, name):
-        cond = node["while"]
-        script = condition_script(str(cond.get("key")), cond.get("op"), cond.get("value"))
-        if script is None:
-            raise self.refuse(node, path, "the guard's condition has no BT.CPP script",
-                              "scripts compare a key with a number, true/false, a string or a $param")
-        return self._element("Guard", name, _while=script)
+        # BT.CPP's own `_while` would make a false guard SKIPPED (its parent goes on): a reactive
+        # sequence of the condition and the child fails instead, re-checking it every tick, as ours
+        element = self._element("ReactiveSequence", name)
+        element.append(self._check(node["while"], guard_condition_name(name)))
+        return element
 
     def _for_each_element(self, node, path, name):
         element = self._element("ForEachElement", name)
@@ -135,12 +137,16 @@ class _Writer:
         return element
 
     def _condition(self, node, path, name):
-        script = condition_script(str(node["key"]), node["op"], node.get("value"))
+        return self._check(node, name)
+
+    def _check(self, cond: Located, name: str) -> ET.Element:
+        """A `{key, op, value}` condition: a ScriptCondition, or a BlackboardCheck where a script cannot say it."""
+        script = condition_script(str(cond["key"]), cond["op"], cond.get("value"))
         if script is not None:
             return self._element("ScriptCondition", name, code=script)
-        ports = {"key": str(node["key"]), "op": node["op"]}
-        if "value" in node:
-            ports["value"] = json.dumps(node["value"])
+        ports = {"key": str(cond["key"]), "op": cond["op"]}
+        if "value" in cond:
+            ports["value"] = json.dumps(cond["value"])
         return self._element("BlackboardCheck", name, **ports)
 
     def _params(self, node, path) -> dict[str, str]:
@@ -161,6 +167,11 @@ class _Writer:
         if defaults:
             element.set(DEFAULTS_ATTR, ";".join(defaults))
         return element
+
+
+def guard_condition_name(guard: str) -> str:
+    """The name of a guard's condition node in BT.CPP (the mark the importer reads a guard by)."""
+    return guard + GUARD_MARK
 
 
 def _param_decl(p: Param) -> dict:

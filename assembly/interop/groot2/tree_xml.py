@@ -66,6 +66,7 @@ class _Walk:
         self.uids: dict[str, int] = {}
         self.subtree_ports: dict[str, dict[str, object]] = {}
         self.doubles: set[str] = set()
+        self.count = 0  # uids given (a guard's condition has one, but no fvtree node)
 
     def node(self, spec: NodeSpec, exported: ET.Element, instance: str) -> ET.Element:
         """The element of `spec` (and below), inside the subtree instance of path `instance`."""
@@ -73,13 +74,8 @@ class _Walk:
         # subtree); children are added below, from the validated tree.
         element = self._double(spec) if spec.kind in DOUBLE_KINDS else ET.Element(exported.tag, exported.attrib)
         element.attrib.pop("_fvtree_defaults", None)
-        self.uids[spec.path] = uid = len(self.uids) + 1
-        element.set("_uid", str(uid))
-        # BT.CPP's TreeNode::fullPath(): the subtree instance's path, the name, and the uid when
-        # the name is the node's ID
+        self.uids[spec.path] = self._number(element, spec.name, instance)
         prefix = f"{instance}/" if instance else ""
-        type_id = element.get("ID", "") if element.tag == "SubTree" else element.tag
-        element.set("_fullpath", prefix + spec.name + (f"::{uid}" if spec.name == type_id else ""))
         if spec.kind == "subtree":
             inner = prefix + spec.name  # BT.CPP's subtree instance path, the name of its blackboard
             self.subtree_ports[inner] = {k: _value(v) for k, v in exported.attrib.items() if k not in NOT_PORTS}
@@ -89,11 +85,26 @@ class _Walk:
         if spec.kind in DOUBLE_KINDS:
             return element
         kids = list(exported)
+        if spec.kind == "guard" and len(kids) == 2:  # a ReactiveSequence: its condition is BT.CPP's node only
+            condition = ET.Element(kids[0].tag, kids[0].attrib)
+            self._number(condition, kids[0].get("name", kids[0].tag), instance)
+            element.append(condition)
+            kids = kids[1:]
         if len(kids) != len(spec.children):
             raise ValueError(f"{spec.path}: the export has {len(kids)} children, the tree {len(spec.children)}")
         for child, child_element in zip(spec.children, kids):
             element.append(self.node(child, child_element, instance))
         return element
+
+    def _number(self, element: ET.Element, name: str, instance: str) -> int:
+        """Give `element` the next uid and its BT.CPP `fullPath()` (the subtree instance's path, the
+        name, and the uid when the name is the node's ID); returns the uid."""
+        self.count = uid = self.count + 1
+        element.set("_uid", str(uid))
+        prefix = f"{instance}/" if instance else ""
+        type_id = element.get("ID", "") if element.tag == "SubTree" else element.tag
+        element.set("_fullpath", prefix + name + (f"::{uid}" if name == type_id else ""))
+        return uid
 
     def _double(self, spec: NodeSpec) -> ET.Element:
         self.doubles.add(DOUBLE_TAG)

@@ -18,7 +18,7 @@
 //
 // fvtree's own kinds are modelled, not stubbed: ForEachElement runs its child once per element,
 // StatusMap maps its child's status, FvParallel ticks every child as py_trees' Parallel does.
-// A Guard passes its child's status through: its condition is BT.CPP's own `_while` pre-condition.
+// A guard is exported as BT.CPP's own ReactiveSequence of its condition and its child: not stubbed.
 
 #include <behaviortree_cpp/bt_factory.h>
 #include <behaviortree_cpp/xml_parsing.h>
@@ -146,7 +146,7 @@ public:
   }
 };
 
-// A decorator that returns its child's status (a Guard; a plug-in's decorator).
+// A decorator that returns its child's status (a plug-in's decorator).
 class StubDecorator : public DecoratorNode
 {
 public:
@@ -444,7 +444,7 @@ void register_spec(BehaviorTreeFactory& factory, const std::string& spec,
   }
   for(const auto& manifest : manifests)
   {
-    // fvtree's own kinds, modelled (a Guard's condition is BT.CPP's own `_while`: it passes through)
+    // fvtree's own kinds, modelled
     if(manifest.registration_ID == "ForEachElement")
     {
       factory.registerBuilder(manifest, builder<ForEachElementStub>());
