@@ -23,10 +23,9 @@ import numpy as np
 
 from behaviours.skill_kit.base import Param
 from behaviours.skill_kit.follow_me import TrackingSkill
-from behaviours.skill_kit.hand import hand_force
+from behaviours.skill_kit.hand import false_object, hand_force
 from behaviours.skill_kit.registry import register
 from behaviours.skill_kit.sensor import sensor_profile
-from perception.state import background_match_of
 
 
 @register
@@ -73,12 +72,9 @@ class ObjectTrack(TrackingSkill):
         return abs(area - self._m_eps) > self.p.area_band * self._m_eps
 
     def blind(self, left, right) -> str:
-        for state in (left, right):
-            match = background_match_of(state.health_reason)
-            if match > self.p.max_false_object * self._area0[state.finger]:
-                return (f"the {state.finger} camera cannot tell the object from its background (its colour model "
-                        f"takes {match:.1%} of the empty view for it, the object covers {self._area0[state.finger]:.1%}): "
-                        "the centroid and area to follow are not the object's")
+        blind = false_object((left, right), self._area0, self.p.max_false_object)
+        if blind:
+            return blind
         push = (hand_force(left, right)[1] - self._f0) / self._px_per_n  # N, from the pads' normal loads
         limit = self.p.unseen_force
         if "y" not in self.p.axes or not limit or abs(push) <= limit or self._area_steps(left.obj.area):

@@ -124,3 +124,26 @@ def test_slip_variant_holds_the_opening_through_a_flickering_slip():
     for tick in np.flatnonzero(felt):
         after = opened[tick:tick + 3]
         assert all(b <= a for a, b in pairwise(after)), (tick, after)  # no growth for 3 ticks
+
+
+def test_the_turn_stops_when_a_camera_cannot_tell_the_object_from_its_background():
+    """The pipeline's warning on a healthy state (pixel mode on a random look, seed 4, before: the skill
+    turned the stick 80 deg for 60, or said 'turned only 3 deg' while it turned 86): the mask's
+    orientation is not the object's, so the skill closes the fingers and says why."""
+    import dataclasses
+
+    from perception.state import OBJECT_UNRELIABLE
+
+    for share, status in ((0.01, "SUCCESS"), (0.05, "FAILURE")):  # the bar covers 0.25: 4 % and 20 % of it
+        h = one_skill("{variant: slip, target: 30, alpha: 0.9}")
+        script = bar(h)
+
+        def warned(tick, t, share=share):
+            states = script(tick, t)
+            reason = f"{OBJECT_UNRELIABLE} {share:.1%} of the empty view (...)" if tick > 20 else ""
+            return {f: dataclasses.replace(s, health_reason=reason) for f, s in states.items()}
+        h.script(warned)
+        assert h.run_until_done(300).name == status
+        if status == "FAILURE":
+            assert "cannot tell the object from its background" in h.feedback("s")
+            assert widths(h)[-1] == pytest.approx(W0)  # closed again where the turn stopped

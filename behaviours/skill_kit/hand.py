@@ -13,7 +13,7 @@ from collections import deque
 
 import numpy as np
 
-from perception.state import ObjectInfo, TactileState
+from perception.state import ObjectInfo, TactileState, background_match_of
 
 
 def hand_force(left: TactileState, right: TactileState) -> np.ndarray:
@@ -104,3 +104,16 @@ def grip_squeeze(left: TactileState, right: TactileState) -> float:
     """The squeeze both pads feel along the closing axis (px): the common part of their normal
     loads, which the hand force (their difference) cancels."""
     return 0.5 * float(left.force[1] - right.force[1])
+
+
+def false_object(states: tuple[TactileState, ...], areas: dict[str, float], max_share: float) -> str:
+    """Why the object a camera shows is not the object ('' when it is): the first state whose pipeline
+    warns that its colour model takes more of the empty view for the object than `max_share` of the
+    object's own seen area (`areas`, per finger: glare, a background of the object's colour)."""
+    for state in states:
+        match, area = background_match_of(state.health_reason), areas[state.finger]
+        if match > max_share * area:
+            return (f"the {state.finger} camera cannot tell the object from its background (its colour model "
+                    f"takes {match:.1%} of the empty view for it, the object covers {area:.1%}): the object's "
+                    "position and orientation it shows are not the object's")
+    return ""
