@@ -14,6 +14,8 @@ from pathlib import Path
 import pytest
 
 from assembly.errors import TreeError
+from assembly.language.reader import load_tree
+from assembly.outcome.outline import render
 from assembly.run.options import RunOptions
 from assembly.run.session import run_tree
 
@@ -71,3 +73,13 @@ def test_a_run_without_a_run_directory_writes_nothing(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     summary = run_tree(HOLD, RunOptions(runs_dir=None, max_time=0.5, **QUIET))
     assert summary.run_dir is None and list(tmp_path.iterdir()) == []
+
+
+def test_show_run_tells_a_node_stopped_while_running_from_one_never_ticked(tmp_path):
+    """`fvtree show --run`: the grasp the time limit stopped is '■', the lift and hold never ticked
+    are '-' (before, both printed '-')."""
+    summary = run_tree(HOLD, RunOptions(runs_dir=tmp_path, max_time=1.0, **QUIET))
+    shown = render(load_tree(HOLD), Path(summary.run_dir)).splitlines()
+    mark = {name: next(x for x in shown if f" {name} [" in x).split(f" {name} [")[0][-1] for name in
+            ("hold_demo", "grasp", "lift", "hold")}
+    assert mark == {"hold_demo": "■", "grasp": "■", "lift": "-", "hold": "-"}, shown
