@@ -66,14 +66,12 @@ def _jsonl(path: Path) -> list[dict]:
 
 
 def _start(run_dir: Path) -> int:
-    """The wall-clock ns of the run's cell time 0: its `start` event, or for a run with no event log
-    (no design: the hold demo) the recording's own start time."""
-    events = run_dir / "events.jsonl"
-    if events.is_file():
-        [start] = [e["time"] for e in _jsonl(events) if e["event"] == "start"]
-        return round(start * 1e9)
+    """The wall-clock ns of the run's cell time 0: its `start` event (every run logs one, the hold
+    demo's without a design too), a little after the recording's own start time."""
+    [start] = [e["time"] for e in _jsonl(run_dir / "events.jsonl") if e["event"] == "start"]
     [row] = read_recording(run_dir / "recording.rrd", ["__properties"])["__properties"]
-    return row["RecordingInfo:start_time"][0]
+    assert 0 <= round(start * 1e9) - row["RecordingInfo:start_time"][0] < 60e9
+    return round(start * 1e9)
 
 
 @pytest.fixture(scope="module")

@@ -56,9 +56,11 @@ def test_transitions_and_events_carry_tick_cell_time_wall_time_and_element(tmp_p
     # `fvtree show --run`: each element's last status, not only the last element's
     shown = render(load_tree(ASSEMBLY), run_dir)
     line = {name: next(x for x in shown.splitlines() if f" {name} [" in x) for name in ("place", "locate", "home")}
-    assert "[E1 ✔ E2 -]" in line["place"] and "[E1 ✔ E2 -]" in line["locate"] and "[E" not in line["home"], shown
-    # E2 was being located when the e-stop halted it (halted: '-'); E1's nodes succeeded for E1, not
-    # for E2, which for_each_element named at the tick E1's place_element succeeded
+    assert "- [E1 ✔ E2 -] place" in line["place"] and "■ [E1 ✔ E2 ■] locate" in line["locate"], shown
+    assert "- home" in line["home"] and "[E" not in line["home"], shown
+    # E2's locate was stopped while it ran ('■'; not '-' as place, never ticked for E2, or home,
+    # never ticked at all); E1's nodes succeeded for E1, not for E2, which for_each_element named
+    # at the tick E1's place_element succeeded
     assert [r["element"] for r in transitions if r["node"].endswith("/locate") and r["to"] == "RUNNING"] == ["E1", "E2"]
     assert [r["element"] for r in transitions if r["node"].endswith("/place") and r["to"] == "SUCCESS"] == ["E1"]
 

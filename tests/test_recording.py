@@ -192,8 +192,9 @@ def test_the_end_of_the_run_is_recorded(assembly_run):
     assert json.loads(details)["status"] == summary.status == "SUCCESS"
 
 
-def test_a_run_without_an_event_log_records_its_end(tmp_path):
-    """A tree with no design has no event log: the session tells the recorder how the run ended."""
+def test_a_run_without_a_design_records_its_end(tmp_path):
+    """A tree with no design: the recorder reads the halt and the end from its event log, as it
+    does a design run's (before, such a run had no event log and the session told the recorder)."""
     summary = run_tree(str(ROOT / "trees" / "hold.yaml"), RunOptions(runs_dir=tmp_path, plots=False, quiet=True, max_time=1.0))
     rec = read_recording(Path(summary.run_dir) / "recording.rrd", ["events"])
     kinds = [r["TextLog:text"][0].split()[0] for r in rec["events"]]

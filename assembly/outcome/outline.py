@@ -12,13 +12,15 @@ from assembly.language.reader import TreeDocument
 from assembly.language.validator import NodeSpec
 from fvfiles.errors import FvtreeError
 
-MARKS = {"SUCCESS": "✔", "FAILURE": "✘", "RUNNING": "*", "INVALID": "-"}
+MARKS = {"SUCCESS": "✔", "FAILURE": "✘", "RUNNING": "*", "HALTED": "■", "INVALID": "-"}
+HALTED = "HALTED"  # a node stopped while it ran (RUNNING -> INVALID): by a halt, or by its parent
 
 
 def final_statuses(run_dir: Path) -> dict[str, dict[str | None, str]]:
     """Last status of every node path in a run's transitions.jsonl, per design element it was
     ticked for (the records' `element`; None outside a `for_each_element`, or in a log written
-    before records named it)."""
+    before records named it). A node stopped while it ran ends `HALTED`, not INVALID: `show --run`
+    tells it from a node never ticked (or reset after it ended)."""
     statuses: dict[str, dict[str | None, str]] = {}
     log = run_dir / "transitions.jsonl"
     if not log.is_file():
@@ -32,7 +34,8 @@ def final_statuses(run_dir: Path) -> dict[str, dict[str | None, str]]:
                     by_element = statuses.setdefault(record["node"], {})
                     key = element if isinstance(element, str) else None
                     by_element.pop(key, None)  # the latest record last: the node's own last status
-                    by_element[key] = record["to"]
+                    halted = record["to"] == "INVALID" and record.get("from") == "RUNNING"
+                    by_element[key] = HALTED if halted else record["to"]
                 except (ValueError, KeyError, TypeError, AttributeError):
                     raise FvtreeError("not a transition record {node, to, ...}", str(log), number) from None
     return statuses
@@ -76,5 +79,5 @@ def render(doc: TreeDocument, run_dir: Path | None = None) -> str:
 
     walk(doc.root, "", True, True)
     if run_dir:
-        lines.append("legend: ✔ success  ✘ failure  * running  - not ticked; [E1 ✔ E2 ✘]: the last status for each element")
+        lines.append("legend: ✔ success  ✘ failure  * running  ■ stopped while running  - not ticked (or reset); [E1 ✔ E2 ✘]: the last status for each element")
     return "\n".join(lines)

@@ -29,6 +29,7 @@ from py_trees.common import Status
 from assembly.design.bridge import DesignBridge
 from assembly.language.build import BuiltTree
 from assembly.outcome.result import RunResult
+from assembly.run.events import EventSink
 from assembly.run.load_profiles import LoadProfiles
 from assembly.run.perception_stage import PerceptionStage
 from assembly.run.progress import Progress
@@ -115,15 +116,17 @@ class Runner:
                  sense: PerceptionSource | None = None,
                  estop_at: float | None = None, max_time: float = 3600.0,
                  supervision: Supervision | None = None, recorder: Recorder | None = None,
-                 storage: RunStorage | None = None, monitor: Monitor | None = None):
+                 storage: RunStorage | None = None, monitor: Monitor | None = None,
+                 events: EventSink | None = None):
         self.tree = tree
         self.cell = cell
         self.bridge = bridge
+        self.events = events if events is not None else bridge  # the event log (a design run's: the bridge)
         self.realtime = realtime
         self.behaviour_tree = BehaviourTree(tree.root)
         self.tip = Tip(tree)
         self.stop_policy = StopPolicy(cell, self.tip, bridge, run_dir / "ESTOP" if run_dir else None,
-                                      estop_at, max_time)
+                                      estop_at, max_time, self.events)
         self.perception = PerceptionStage(cell, sense)
         self.supervisor = Supervisor(cell, supervision, tree, self.tip) if supervision else None
         self.load_profiles = LoadProfiles()
@@ -139,8 +142,8 @@ class Runner:
         if self.supervisor is not None:
             self.behaviour_tree.add_pre_tick_handler(self.supervisor)
             self.stop_policy.checks.insert(0, self.supervisor.check)
-        if bridge is not None:  # events stamped like the transitions: the run's tick, cell time, element
-            bridge.stamp = self.stamp
+        if self.events is not None:  # events stamped like the transitions: the run's tick, cell time, element
+            self.events.stamp = self.stamp
         self.monitor = monitor
         for handler in (self._kick_watchdog, self.tip, self.load_profiles, self.log, self.recorder, self.progress,
                         monitor):
@@ -233,7 +236,7 @@ class Runner:
 
     def halt(self, where: str | None = None, event: str = "halted", **data) -> None:
         """Stop the tree (every running skill's terminate runs), the arm and the gripper; the
-        design bridge logs `event` at `where` (default: the tip) with `data`."""
+        run's event log (if any) takes `event` at `where` (default: the tip) with `data`."""
         self.tip(self.behaviour_tree)
         self.stop_policy.halt(self.behaviour_tree.root, where or self.tip.path, event, **data)
         if self.log:
@@ -241,7 +244,7 @@ class Runner:
         if self.monitor is not None:
             self.monitor(self.behaviour_tree)
         if self.recorder:
-            if self.bridge is None:  # no event log for the recorder to read: tell it
+            if self.events is None:  # no event log for the recorder to read: tell it
                 self.recorder.event(event, where=where or self.tip.path, **data)
             self.recorder.record(self.ticks)
         self.come_to_rest()  # after the records: they keep one tick a period

@@ -34,6 +34,7 @@ from assembly.outcome.result import RunResult
 from assembly.outcome.summary import SUMMARY_FILE, Summary, format_summary, summarize
 from assembly.outcome.verdict import TASK_FAILED, judge, tolerances_for
 from assembly.run.event_log import Box, cell_box, check_run_records, drop_torn_tail
+from assembly.run.events import EventSink, RunEvents
 from assembly.run.loop import Monitor, Runner
 from assembly.run.options import MARKS, RunOptions
 from assembly.run.perception_stage import clear_blackboard
@@ -73,6 +74,7 @@ class Run:
         self.sense = sense
         self.run_dir: Path | None = None
         self.bridge: DesignBridge | None = None
+        self.events: EventSink | None = None  # the run directory's event log: the bridge, or `RunEvents`
         self.tolerances: dict[str, float] = {}
         self.nothing_to_do: Summary | None = None  # a resumed run with every element placed
         self._parts: _Parts | None = None
@@ -174,6 +176,7 @@ class Run:
                 if doc.design is not None:
                     self.bridge = DesignBridge(doc.design, self.run_dir / ASBUILT_FILE, self.run_dir / EVENTS_FILE)
         self.storage = RunStorage(self.run_dir)
+        self.events = self.bridge if self.bridge is not None else RunEvents(self.run_dir / EVENTS_FILE)
         if self.bridge is not None and o.link is not None:
             from assembly.design.link.mqtt_bridge import attach_options  # compas_eve and paho: only when linked
 
@@ -214,9 +217,9 @@ class Run:
         runner = Runner(tree, cell, self.run_dir, self.bridge, realtime=o.realtime,
                         progress=None if o.quiet else stderr_progress, sense=sense, estop_at=o.estop_at,
                         max_time=o.max_time, supervision=supervision, recorder=recorder, storage=self.storage,
-                        monitor=monitor)
-        if self.bridge is not None:
-            self.bridge.event("start", tree=str(self.doc.path), cell=o.cell, seed=o.seed, resume=bool(o.resume))
+                        monitor=monitor, events=self.events)
+        if self.events is not None:  # every run's log begins so, with or without a design
+            self.events.event("start", tree=str(self.doc.path), cell=o.cell, seed=o.seed, resume=bool(o.resume))
         return _Parts(cell, tree, recorder, runner, monitor)
 
     def _monitor(self, tree: BuiltTree, cell: Cell) -> Monitor | None:
@@ -311,16 +314,17 @@ class Run:
 
     def _lost(self) -> list[str]:
         """What disk trouble cost this run: the storage's notes and events that only reached stderr."""
-        unlogged = self.bridge.unlogged if self.bridge is not None else 0
+        unlogged = self.events.unlogged if self.events is not None else 0
         return self.storage.notes + ([f"{EVENTS_FILE}: {unlogged} records only on stderr"] if unlogged else [])
 
     def _log_end(self, summary: Summary, result: RunResult) -> None:
         end = {"status": summary.status, "where": result.where, "message": summary.message}
-        if self.bridge is not None:
-            self.bridge.event("end", **end)
-            self.bridge.close()
+        if self.events is not None:
+            self.events.event("end", **end)
         elif self.recorder is not None:  # no event log for the recorder to read the end from: tell it
             self.recorder.event("end", **end)
+        if self.bridge is not None:
+            self.bridge.close()
         if self.recorder is not None:
             self.recorder.finish()
 

@@ -4,7 +4,7 @@ A run stops on an e-stop (the cell's input, an `ESTOP` file in the run directory
 tick, or one scheduled at a cell time), when its cell-time limit passes, on Ctrl-C or SIGTERM
 (`Terminated`), or on a fault latched by the cell supervisor (`assembly.run.supervisor`, one of
 `checks`). Stopping halts the tree: every running skill's `terminate` runs, the arm and the
-gripper stop (even when a `terminate` raises) and the design bridge hears of it. Every stop
+gripper stop (even when a `terminate` raises) and the run's event log records it. Every stop
 message names the node that was running.
 """
 
@@ -20,6 +20,7 @@ import py_trees
 from py_trees.common import Status
 
 from assembly.design.bridge import DesignBridge
+from assembly.run.events import EventSink
 from assembly.run.tip import Tip
 from assembly.signals import Terminated
 from drivers.cell import Cell
@@ -48,10 +49,11 @@ class StopPolicy:
 
     def __init__(self, cell: Cell, tip: Tip, bridge: DesignBridge | None = None,
                  estop_file: Path | None = None, estop_at: float | None = None,
-                 max_time: float = 3600.0):
+                 max_time: float = 3600.0, events: EventSink | None = None):
         self.cell = cell
         self.tip = tip
         self.bridge = bridge
+        self.events = events if events is not None else bridge  # where the halt is logged
         # Kept as a str: os.access, every tick, takes a Path at twice the cost (~2 us against ~1 us).
         self.estop_file = None if estop_file is None else os.fspath(estop_file)
         self.estop_at = estop_at
@@ -102,7 +104,7 @@ class StopPolicy:
 
     def halt(self, root: py_trees.behaviour.Behaviour, where: str, event: str = "halted", **data) -> None:
         """Stop the tree (every running node's `terminate` runs, even after one raised), the arm
-        and the gripper, and log `event` (with `data`) at `where` through the design bridge."""
+        and the gripper, and log `event` (with `data`) at `where` in the run's event log."""
         try:
             for node in list(root.iterate()):  # children before their parents, as `root.stop` does
                 if node.status != Status.INVALID:
@@ -114,5 +116,5 @@ class StopPolicy:
         finally:
             self.cell.arm.stop()
             self.cell.gripper.stop()
-        if self.bridge:
-            self.bridge.event(event, node=where, estop=self.cell.estop, **data)
+        if self.events is not None:
+            self.events.event(event, node=where, estop=self.cell.estop, **data)
