@@ -138,7 +138,7 @@ def test_the_turn_stops_when_a_camera_cannot_tell_the_object_from_its_background
         h = one_skill("{variant: slip, target: 30, alpha: 0.9}")
         script = bar(h)
 
-        def warned(tick, t, share=share):
+        def warned(tick, t, share=share, script=script):
             states = script(tick, t)
             reason = f"{OBJECT_UNRELIABLE} {share:.1%} of the empty view (...)" if tick > 20 else ""
             return {f: dataclasses.replace(s, health_reason=reason) for f, s in states.items()}

@@ -104,8 +104,9 @@ def test_servo_streaming_for_one_second_arrives_and_is_tracked(arm, ur):
     latencies = arm.stream_servo(lambda t: start + [0.02 * t, 0, 0, 0, 0, 0], duration=1.0)
     s = ur.state()
     received = s["servo_updates"] - before
-    # every target sent arrived; the rate a busy machine achieves is `fvtree bench drivers`' figure
-    assert len(latencies) >= 100 and received >= 0.95 * len(latencies)
+    # every target sent arrived; the rate a machine achieves is `fvtree bench drivers`' figure (a loaded
+    # two-core machine sent 31 in the second, a quiet one hundreds)
+    assert len(latencies) >= 10 and received >= 0.95 * len(latencies)
     # the arm tracked the stream (servoL lags its target by about the lookahead time, 0.1 s)
     assert 0.015 < s["pose"][0] - start[0] <= 0.02 + 1e-9
 
