@@ -111,3 +111,13 @@ def test_a_resume_judges_the_element_a_person_marked_placed(tmp_path):
     assert all(e["status"] == "placed" for e in second.elements.values())
     assert second.truth.unjudged == []
     assert second.status == ("TASK_FAILED" if e1["regret"] > 0.01 else "SUCCESS")
+
+
+def test_a_press_that_goes_on_past_its_target_ends_task_failed(tmp_path):
+    """Randomised seed 2 (skin lag 0.92 s, force offset 5.4 N): the scale read 5 N on the way, but the
+    press ended 7 N beyond it with the stick still pressed. Before: SUCCESS (the bench flagged it)."""
+    from assembly.bench.robustness import randomised_cell
+
+    summary = run_tree(str(TREES / "press_with_force.yaml"),
+                       RunOptions(cell=str(randomised_cell(tmp_path)), seed=2, runs_dir=None, quiet=True, plots=False))
+    _failed(summary, "the press ends with the scale at ")

@@ -118,7 +118,8 @@ class PressScene(PickedScene):
 
     def shortfalls(self, tolerances: Mapping[str, float]) -> list[str]:
         """Never picked up, slid in the grip beyond `max_slip_mm`, or (with the tree's target
-        `press_force_N`) the scale never read the target within `force_tolerance_N` for `min_hold_s`."""
+        `press_force_N`) the scale never read the target within `force_tolerance_N` for `min_hold_s`,
+        or, with the stick still pressed at the end, it ends outside that band."""
         if not self.held:
             return ["the stick was never picked up"]
         out = []
@@ -133,6 +134,9 @@ class PressScene(PickedScene):
                 peak = max(self._pressed, default=0.0)
                 out.append(f"the scale never read {target:g} N +- {band:g} N for {need:g} s (peak {peak:.2f} N, "
                            f"longest within {held:.2f} s)")
+            elif not self.released and abs(self.force - target) > band:  # the press went on past the target
+                out.append(f"the press ends with the scale at {self.force:.2f} N, more than {band:g} N from "
+                           f"{target:g} N")
         return out
 
     def labels(self) -> dict:
