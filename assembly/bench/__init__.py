@@ -4,7 +4,8 @@ benchmark module run on its own as `python -m assembly.bench...`."""
 from __future__ import annotations
 
 import argparse
-from collections.abc import Callable
+import csv
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 
@@ -18,3 +19,12 @@ def script(prog: str, run: Callable[[Path, bool], list[Path]], default_out: str,
     for path in run(args.out, args.quick):
         print(f"wrote {path}")
     return 0
+
+
+def write_csv(path: Path, rows: Sequence[dict], fieldnames: Sequence[str] | None = None) -> Path:
+    """Write `rows` as a CSV table at `path` (columns: `fieldnames`, else the first row's keys)."""
+    with open(path, "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(fieldnames or rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    return path

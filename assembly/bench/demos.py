@@ -7,12 +7,13 @@ truth), the exit code, every figure the scene reports, and the real-time factor.
 
 from __future__ import annotations
 
-import csv
 import json
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+from assembly.bench import write_csv
 
 TREES = Path(__file__).resolve().parents[2] / "trees"
 MODES = ("signals", "pixels")
@@ -67,11 +68,7 @@ def run(out: Path, quick: bool = False) -> list[Path]:
                 runs_dir = Path(tmp) / f"{tree.stem}-{mode}"
                 for quantity, value in figures(run_demo(tree, mode, runs_dir)).items():
                     rows.append({"tree": tree.name, "mode": mode, "quantity": quantity, "value": value})
-    csv_path = out / "demos.csv"
-    with open(csv_path, "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=["tree", "mode", "quantity", "value"])
-        writer.writeheader()
-        writer.writerows(rows)
+    csv_path = write_csv(out / "demos.csv", rows, ["tree", "mode", "quantity", "value"])
     md_path = out / "demos.md"
     md_path.write_text(markdown(rows))
     return [csv_path, md_path, chart(rows, out / "demos.png")]

@@ -7,12 +7,12 @@ recording.csv, recording.md and recording.png. Target: >= 100x real time with re
 
 from __future__ import annotations
 
-import csv
 import statistics
 import tempfile
 import time
 from pathlib import Path
 
+from assembly.bench import write_csv
 from assembly.observe.recorder import RECORDING_FILE
 from assembly.run.options import RunOptions
 from assembly.run.session import Run
@@ -47,11 +47,7 @@ def run(out: Path, quick: bool = False) -> list[Path]:
         for _ in range(REPEATS):
             rows.append(one_run(Path(tmp), record=False, max_time=max_time))
             rows.append(one_run(Path(tmp), record=True, max_time=max_time))
-    csv_path = out / "recording.csv"
-    with open(csv_path, "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+    csv_path = write_csv(out / "recording.csv", rows)
     summary = {on: _median(rows, on) for on in (False, True)}
     md_path = out / "recording.md"
     md_path.write_text(_table(summary, rows, quick))

@@ -7,10 +7,10 @@ SUCCESS. Writes seeds.csv (tree, mode, seed, verdict, why), seeds.md and seeds.p
 
 from __future__ import annotations
 
-import csv
 import tempfile
 from pathlib import Path
 
+from assembly.bench import write_csv
 from assembly.bench.demos import MODES, demo_trees, figures, mode_bars, run_demo, save
 
 SEEDS = {"signals": range(10), "pixels": range(5)}
@@ -27,11 +27,7 @@ def run(out: Path, quick: bool = False) -> list[Path]:
                     result = figures(run_demo(tree, mode, Path(tmp) / f"{tree.stem}-{mode}-{seed}", seed))
                     rows.append({"tree": tree.name, "mode": mode, "seed": seed, "verdict": result["verdict"],
                                  "why": result.get("why", "")})
-    csv_path = out / "seeds.csv"
-    with open(csv_path, "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=["tree", "mode", "seed", "verdict", "why"])
-        writer.writeheader()
-        writer.writerows(rows)
+    csv_path = write_csv(out / "seeds.csv", rows, ["tree", "mode", "seed", "verdict", "why"])
     md_path = out / "seeds.md"
     md_path.write_text(markdown(rows))
     return [csv_path, md_path, chart(rows, out / "seeds.png")]

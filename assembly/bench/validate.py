@@ -9,7 +9,6 @@ imports, against the goal) and validate.png.
 
 from __future__ import annotations
 
-import csv
 import os
 import statistics
 import subprocess
@@ -17,6 +16,7 @@ import sys
 import time
 from pathlib import Path
 
+from assembly.bench import write_csv
 from assembly.bench.demos import save
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -68,11 +68,7 @@ def run(out: Path, quick: bool = False) -> list[Path]:
             rows.append({"tree": tree, "run": i, "seconds": round(seconds, 4), "cpu_seconds": round(cpu, 4),
                          "peak_mb": round(mb, 1)})
         heavy[tree] = heavy_imports(tree)
-    csv_path = out / "validate.csv"
-    with open(csv_path, "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=["tree", "run", "seconds", "cpu_seconds", "peak_mb"])
-        writer.writeheader()
-        writer.writerows(rows)
+    csv_path = write_csv(out / "validate.csv", rows, ["tree", "run", "seconds", "cpu_seconds", "peak_mb"])
     md_path = out / "validate.md"
     md_path.write_text(markdown(summary(rows), heavy))
     return [csv_path, md_path, chart(summary(rows), out / "validate.png")]

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
-import csv
 from collections.abc import Sequence
 from pathlib import Path
 
 import matplotlib
+
+from assembly.bench import write_csv
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
@@ -22,10 +23,7 @@ def write_table(out: Path, name: str, rows: Sequence[dict], title: str, notes: s
     """Write rows as `<name>.csv` and `<name>.md`; returns both paths."""
     keys = list(rows[0])
     csv_path, md_path = out / f"{name}.csv", out / f"{name}.md"
-    with csv_path.open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=keys)
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv(csv_path, rows, keys)
     lines = [f"# {title}", ""] + ([notes, ""] if notes else [])
     lines += ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
     lines += ["| " + " | ".join(_fmt(r[k]) for k in keys) + " |" for r in rows]
