@@ -90,6 +90,16 @@ def test_the_cli_checks_for_the_named_cell_and_still_checks_cell_files_whole(tmp
     assert "nothing to validate" in capsys.readouterr().err
 
 
+def test_run_checks_the_tree_against_the_cell_it_runs_on_before_building_it(tmp_path, capsys):
+    """`fvtree run` applies validate's device-range check for the cell it runs on: the tree is
+    refused at its line, exit 2, before any device is created (no run directory either)."""
+    runs = tmp_path / "runs"
+    assert main(["run", str(tree(tmp_path, force=500.0)), "--runs-dir", str(runs)]) == 2
+    assert "t.yaml:15: s/grasp: param 'force' = 500 N is outside the gripper force range of cell sim" \
+        in capsys.readouterr().err
+    assert not runs.exists()
+
+
 def test_every_device_param_names_a_known_range_in_its_unit():
     units = {"gripper_force": "N", "gripper_width": "m", "arm_speed": "m/s", "arm_angular_speed": "rad/s",
              "arm_force": "N"}

@@ -137,7 +137,7 @@ class Run:
 
     def _document(self, tree: str | Path | TreeDocument) -> tuple[TreeDocument, list[dict]]:
         """The validated tree with the options' scene and test doubles, and the doubles put in."""
-        doc = tree if isinstance(tree, TreeDocument) else load_tree(tree)
+        doc = tree if isinstance(tree, TreeDocument) else load_tree(tree, cell=self.options.cell)
         if self.options.scene is not None:
             doc = with_scene(doc, self.options.scene)
         return substitute(doc, list(self.options.substitutions))
