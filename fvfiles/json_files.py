@@ -6,6 +6,8 @@ import json
 import os
 import sys
 import tempfile
+import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -77,6 +79,32 @@ def append_json_line_or_stderr(path: Path, record: dict) -> bool:
                          + json.dumps(record, default=to_jsonable) + "\n")
         sys.stderr.flush()
         return False
+
+
+class EventLog:
+    """An append-only JSON-lines log of events, each record forced to disk (or to stderr when the
+    file cannot take it: `unlogged` counts those) and stamped with the wall `time` and whatever
+    `stamp` returns now (a run's tick, cell time and element in work; the record's own data wins)."""
+
+    def __init__(self, path: Path):
+        self.path = Path(path)
+        self.stamp: Callable[[], dict] | None = None
+        self.unlogged = 0
+
+    def stamped(self, kind: str, data: dict) -> dict:
+        """The record of event `kind` with `data`, stamped."""
+        stamp = self.stamp() if self.stamp is not None else {}
+        return {"time": time.time(), "event": kind, **data, **{k: v for k, v in stamp.items() if k not in data}}
+
+    def write(self, record: dict) -> bool:
+        """Append `record`; whether it reached the log."""
+        logged = append_json_line_or_stderr(self.path, record)
+        self.unlogged += not logged
+        return logged
+
+    def event(self, kind: str, **data: Any) -> bool:
+        """Log event `kind` with `data`; whether it reached the log."""
+        return self.write(self.stamped(kind, data))
 
 
 def read_json_lines(path: Path) -> list[dict]:

@@ -5,8 +5,6 @@ live design links."""
 from __future__ import annotations
 
 import sys
-import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -14,10 +12,10 @@ import numpy as np
 
 from assembly.design.model import DesignModel
 from fvfiles.errors import FvtreeError, RecordNotWritten
-from fvfiles.json_files import append_json_line_or_stderr, atomic_write_json, read_json_lines
+from fvfiles.json_files import EventLog, atomic_write_json, read_json_lines
 
 
-class DesignBridge:
+class DesignBridge(EventLog):
     """Sends as-built data back to the design model. Each record (`placing` before the fingers
     open, `placed` once the element stands, a person's `marked`) is first appended to the event
     log and forced to disk, then the as-built model file is replaced atomically: a crash or a
@@ -31,13 +29,11 @@ class DesignBridge:
 
     def __init__(self, model: DesignModel, asbuilt_path: Path, events_path: Path, links: tuple = (),
                  dispatcher: Any = None):
+        super().__init__(events_path)
         self.model = model
         self.asbuilt_path = Path(asbuilt_path)
-        self.events_path = Path(events_path)
         self.links = list(links)
         self.dispatcher = dispatcher  # hands out the next element when several cells share a design
-        self.unlogged = 0  # events that went to stderr: the event log could not be written
-        self.stamp: Callable[[], dict] | None = None  # the run's {tick, t, element} now (the tick loop sets it)
         # {element, path, speed} of a way out a stopped session began and did not finish (`catch_up`)
         self.unfinished_retreat: dict | None = None
         atomic_write_json(self.asbuilt_path, model.to_data())
@@ -53,12 +49,15 @@ class DesignBridge:
         """Log an event (to stderr if the log cannot be written) and show it to the links; whether
         it reached the log. `time` is the wall time; the run's `stamp` adds its tick, cell time
         `t` and the element in work, as the transition log has them."""
-        stamp = self.stamp() if self.stamp is not None else {}
-        record = {"time": time.time(), "event": kind, **data, **{k: v for k, v in stamp.items() if k not in data}}
-        logged = append_json_line_or_stderr(self.events_path, record)
-        self.unlogged += not logged
+        record = self.stamped(kind, data)
+        logged = self.write(record)
         self.notify(record)
         return logged
+
+    @property
+    def events_path(self) -> Path:
+        """The event log (`events.jsonl` of the run directory)."""
+        return self.path
 
     def notify(self, record: dict) -> None:
         """Show a record to the live links only (a passing state such as `picking`, not logged)."""

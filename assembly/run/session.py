@@ -34,7 +34,7 @@ from assembly.outcome.result import RunResult
 from assembly.outcome.summary import SUMMARY_FILE, Summary, format_summary, summarize
 from assembly.outcome.verdict import TASK_FAILED, judge, tolerances_for
 from assembly.run.event_log import Box, cell_box, check_run_records, drop_torn_tail
-from assembly.run.events import EventSink, RunEvents
+from assembly.run.events import EventSink
 from assembly.run.loop import Monitor, Runner
 from assembly.run.options import MARKS, RunOptions
 from assembly.run.perception_stage import clear_blackboard
@@ -49,7 +49,7 @@ from drivers.cell import Cell
 from drivers.cell_builders import load_cell
 from drivers.protocols import World
 from fvfiles.errors import FvtreeError
-from fvfiles.json_files import read_json_lines
+from fvfiles.json_files import EventLog, read_json_lines
 
 if TYPE_CHECKING:
     from typing_extensions import Self  # typing.Self from Python 3.11
@@ -74,7 +74,7 @@ class Run:
         self.sense = sense
         self.run_dir: Path | None = None
         self.bridge: DesignBridge | None = None
-        self.events: EventSink | None = None  # the run directory's event log: the bridge, or `RunEvents`
+        self.events: EventSink | None = None  # the run directory's event log: the bridge, or an `EventLog`
         self.tolerances: dict[str, float] = {}
         self.nothing_to_do: Summary | None = None  # a resumed run with every element placed
         self._parts: _Parts | None = None
@@ -176,7 +176,7 @@ class Run:
                 if doc.design is not None:
                     self.bridge = DesignBridge(doc.design, self.run_dir / ASBUILT_FILE, self.run_dir / EVENTS_FILE)
         self.storage = RunStorage(self.run_dir)
-        self.events = self.bridge if self.bridge is not None else RunEvents(self.run_dir / EVENTS_FILE)
+        self.events = self.bridge if self.bridge is not None else EventLog(self.run_dir / EVENTS_FILE)
         if self.bridge is not None and o.link is not None:
             from assembly.design.link.mqtt_bridge import attach_options  # compas_eve and paho: only when linked
 
