@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-from fvfiles.errors import FvtreeError, did_you_mean
-from fvfiles.yaml_source import SourceError, load_file
+from fvfiles.errors import FvtreeError, did_you_mean, did_you_mean_field, field_name
+from fvfiles.yaml_source import Located, SourceError, load_file
 
 PRESET_DIR = Path(__file__).with_name("presets")
 
@@ -212,43 +212,51 @@ def _coerce(value: Any, kind: Any, where: str) -> Any:
     if text.startswith("tuple"):
         n = text.count(",") + 1
         if not isinstance(value, (list, tuple)) or len(value) != n:
-            raise ConfigError(f"{where}: expected a list of {n} numbers, got {value!r}")
+            raise ConfigError(f"expected a list of {n} numbers, got {value!r}", field=where)
         return tuple(_coerce(v, text[6:-1].split(",")[0].strip(), where) for v in value)
     if text.startswith("Literal"):
         allowed = [a.strip().strip("'\"") for a in text[8:-1].split(",")]
         if value not in allowed:
-            raise ConfigError(f"{where}: {value!r} is not one of {', '.join(allowed)}")
+            raise ConfigError(f"{value!r} is not one of {', '.join(allowed)}", field=where)
         return value
     if text == "bool":
         if not isinstance(value, bool):
-            raise ConfigError(f"{where}: expected true or false, got {value!r}")
+            raise ConfigError(f"expected true or false, got {value!r}", field=where)
         return value
     if text in ("int", "float"):
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ConfigError(f"{where}: expected a number, got {value!r}")
+            raise ConfigError(f"expected a number, got {value!r}", field=where)
         if text == "int" and float(value) != int(value):
-            raise ConfigError(f"{where}: expected an integer, got {value!r}")
+            raise ConfigError(f"expected an integer, got {value!r}", field=where)
         return int(value) if text == "int" else float(value)
     if text == "str":
         return str(value)
-    raise ConfigError(f"{where}: unsupported type {text}")  # a programming error in this module
+    raise ConfigError(f"unsupported type {text}", field=where)  # a programming error in this module
 
 
 def _build(cls, data: Any, where: str):
+    """`cls` from mapping `data` at dotted `where`; a problem raises a ConfigError naming the field
+    and, for a mapping read from a file, the line of its key."""
     if not isinstance(data, Mapping):
-        raise ConfigError(f"{where}: expected a mapping, got {type(data).__name__}")
+        raise ConfigError(f"expected a mapping, got {type(data).__name__}", field=where or None)
     fields = {f.name: f for f in dataclasses.fields(cls)}
+    lines = data.line_of if isinstance(data, Located) else lambda _key: None
     kwargs = {}
     for key, value in data.items():
-        if key not in fields:
-            raise ConfigError(f"{where}: unknown key {key!r}{_hint(str(key), fields)}")
-        kind = fields[key].type
+        if key not in fields:  # quoted only when it looks like a field name: a file that is no config stays unread
+            raise ConfigError(f"unknown key {field_name(key)}", line=lines(key), field=where or None,
+                              hint=did_you_mean_field(key, fields) or "known: " + ", ".join(sorted(fields)))
         sub = f"{where}.{key}" if where else key
-        if dataclasses.is_dataclass(fields[key].default_factory if fields[key].default_factory
-                                    is not dataclasses.MISSING else None):
-            kwargs[key] = _build(fields[key].default_factory, value, sub)
-        else:
-            kwargs[key] = _coerce(value, kind, sub)
+        default = fields[key].default_factory
+        try:
+            if default is not dataclasses.MISSING and dataclasses.is_dataclass(default):
+                kwargs[key] = _build(default, value, sub)
+            else:
+                kwargs[key] = _coerce(value, fields[key].type, sub)
+        except ConfigError as exc:
+            if exc.line is None:
+                exc.line = lines(key)
+            raise
     return cls(**kwargs)
 
 
@@ -257,7 +265,7 @@ def from_dict(data: Mapping[str, Any], source: str = "config") -> FingerVisionCo
     try:
         config = _build(FingerVisionConfig, data, "")
     except ConfigError as exc:
-        raise ConfigError(f"{source}: {exc}") from None
+        raise ConfigError(exc.message, source, exc.line, exc.field, exc.hint) from None
     _check(config, source)
     return config
 
@@ -305,6 +313,8 @@ def load_config(preset: str | Path = "fast", **overrides: Any) -> FingerVisionCo
         data = load_file(path) or {}  # read with limits: size, aliases, depth, UTF-8, no NaN
     except SourceError as exc:
         raise ConfigError(f"perception config: {exc}") from None
+    if not isinstance(data, Mapping):  # what it holds is not shown: the file may be no config at all
+        raise ConfigError(f"a perception config is a mapping of settings, not a {type(data).__name__}", str(path))
     data.setdefault("name", path.stem)
     config = from_dict(data, source=str(path))
     if overrides:

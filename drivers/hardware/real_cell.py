@@ -106,7 +106,7 @@ def pipeline_config(path: Path, preset: Any) -> FingerVisionConfig:
     try:
         return load_config(preset)
     except ConfigError as exc:
-        raise CellFileError(path, "perception.preset", exc.message, exc.hint) from None
+        raise CellFileError(path, "perception.preset", str(exc)) from None  # the preset file's own line too
 
 
 def marker_maps(path: Path, files: Any, cameras: dict[str, CameraConfig]) -> dict[str, MarkerMap]:

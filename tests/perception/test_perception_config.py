@@ -46,3 +46,24 @@ def test_config_file_mistakes_are_named(tmp_path, text, message):
 def test_unknown_preset_suggests_a_name():
     with pytest.raises(ConfigError, match="did you mean 'fast'"):
         load_config("fats")
+
+
+def test_config_file_mistakes_name_the_line_and_field(tmp_path):
+    path = tmp_path / "mine.yaml"
+    path.write_text("name: mine\nkalman:\n  enabled: true\n  process_noise: abc\n")
+    with pytest.raises(ConfigError) as caught:
+        load_config(path)
+    assert str(caught.value) == f"{path}:4: kalman.process_noise: expected a number, got 'abc'"
+
+
+def test_a_file_that_is_no_config_is_refused_without_showing_its_lines(tmp_path):
+    """A preset path may point anywhere (a cell file names it): its lines are not quoted back."""
+    shadow = tmp_path / "shadow.yaml"
+    shadow.write_text("root:$6$salt$hash:19000:0:99999:7:::\n")
+    with pytest.raises(ConfigError) as caught:
+        load_config(shadow)
+    assert "salt" not in str(caught.value) and "no field name, not shown" in str(caught.value)
+    plain = tmp_path / "plain.yaml"
+    plain.write_text("just some text\n")
+    with pytest.raises(ConfigError, match="a perception config is a mapping of settings, not a str"):
+        load_config(plain)
