@@ -6,8 +6,8 @@ learned force model is trained on.
 The pads show that load as shear with the partial-slip softening of a Hertz-Mindlin contact:
 as the load nears the grip's friction capacity the gel shears more per newton, so the marker
 field is not linear in the force (one reason to learn the mapping). Past the capacity the stick
-slides up in the grip. The arm's TCP force reads what the stick puts on the hand (its weight, and
-the scale's push once it touches), as a real arm pressing through its grip feels the press. Let go (no squeeze left), the stick stays upright in its holder, resting
+slides up in the grip. The arm's TCP force reads what the stick puts on the hand (its weight once
+squeezed, the holder only guiding it, and the scale's push once it touches), as a real arm pressing through its grip feels the press. Let go (no squeeze left), the stick stays upright in its holder, resting
 on the scale with its own weight, between the open fingers.
 
 The stick's material (scene arg `object`, `drivers.sim.models.objects`) sets its grip on the pads
@@ -92,7 +92,9 @@ class PressScene(PickedScene):
 
     def step(self, dt: float) -> None:
         squeeze = self.carry(dt)
-        if squeeze is None:
+        if squeeze is None:  # squeezed in its holder, which only guides it, the stick's weight is the hand's
+            weight = -self.mass * GRAVITY if self.gripper.squeeze_force() > 0.0 else 0.0
+            self.arm.external_wrench = np.array([0.0, 0.0, weight, 0.0, 0.0, 0.0])
             return
         if self.released or squeeze <= 0.0:
             self.released = True
