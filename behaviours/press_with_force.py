@@ -107,7 +107,7 @@ class PressWithForce(UsesModel, ProgramSkill):
         stands = [(depth(), stand.felt)]
         # 2. press by the learned force, its lag undone and scaled to the arm's force, until it shows the target
         if not self._reached(stand):
-            why = yield from self._approach(read, scale, lag)
+            why = yield from self._approach(read, scale, lag, 1.0 if stand.felt < self.p.target else -1.0)
             if why:
                 return self.fail(why)
         # 3. stand, and correct by the contact's measured stiffness until the TCP force is at the target
@@ -137,7 +137,8 @@ class PressWithForce(UsesModel, ProgramSkill):
         return abs(stand.felt - self.p.target) <= max(self.p.tolerance, 2.0 * stand.felt_noise)
 
     def _trouble(self, felt: float, learned: float = 0.0) -> str | None:
-        """Why the press must stop now (None: it may go on)."""
+        """Why the press must stop now (None: it may go on); the force is the larger of the arm's and
+        the learned one as the model reads it."""
         force = max(felt, learned)
         travelled = float(np.linalg.norm(self.pose()[:3] - self._start[:3]))
         if force > self.p.max_force:
@@ -176,10 +177,11 @@ class PressWithForce(UsesModel, ProgramSkill):
                 continue
             return Stand.of(shown, felt, window, self.cell.clock.period)
 
-    def _approach(self, read: Callable[[], tuple[float, float]], scale: float, lag: float):
+    def _approach(self, read: Callable[[], tuple[float, float]], scale: float, lag: float, direction: float):
         """Steps (`yield from`) pressing at a speed proportional to the error of the learned force (lag
         undone, scaled), until it has stayed within the tolerance for `settle` ticks or the arm's force
-        has passed the target; None, or why the press must stop."""
+        has passed the target going in `direction` (+1 pressing, -1 easing off); None, or why the press
+        must stop."""
         arm, period = self.cell.arm, self.cell.clock.period
         history: deque = deque(maxlen=max(3, round(LAG_WINDOW_S / period)))
         felt_recent: deque = deque(maxlen=max(3, self.p.smoothing))
@@ -189,12 +191,12 @@ class PressWithForce(UsesModel, ProgramSkill):
             history.append((self.now(), shown))
             felt_recent.append(felt)
             force = scale * (shown + lag * slope(history))
-            why = self._trouble(felt, force)
+            why = self._trouble(felt, shown)  # not the lag-undone force: its slope spikes on a noisy tick
             if why:
                 return why
             error = self.p.target - force
             within = within + 1 if abs(error) <= self.p.tolerance else 0
-            if len(felt_recent) == felt_recent.maxlen and float(np.mean(felt_recent)) > self.p.target + self.p.tolerance:
+            if len(felt_recent) == felt_recent.maxlen and direction * (float(np.mean(felt_recent)) - self.p.target) > self.p.tolerance:
                 break  # the arm feels the target passed: stand and correct from there
             speed = float(np.clip(self.p.gain * error, -self.p.max_speed, self.p.max_speed))
             arm.speed_linear(np.r_[axis * speed, 0.0, 0.0, 0.0])
