@@ -107,7 +107,7 @@ class PressWithForce(UsesModel, ProgramSkill):
         stands = [(depth(), stand.felt)]
         # 2. press by the learned force, its lag undone and scaled to the arm's force, until it shows the target
         if not self._reached(stand):
-            why = yield from self._approach(read, scale, lag, 1.0 if stand.felt < self.p.target else -1.0)
+            why = yield from self._approach(read, scale, lag)
             if why:
                 return self.fail(why)
         # 3. stand, and correct by the contact's measured stiffness until the TCP force is at the target
@@ -177,11 +177,11 @@ class PressWithForce(UsesModel, ProgramSkill):
                 continue
             return Stand.of(shown, felt, window, self.cell.clock.period)
 
-    def _approach(self, read: Callable[[], tuple[float, float]], scale: float, lag: float, direction: float):
+    def _approach(self, read: Callable[[], tuple[float, float]], scale: float, lag: float):
         """Steps (`yield from`) pressing at a speed proportional to the error of the learned force (lag
         undone, scaled), until it has stayed within the tolerance for `settle` ticks or the arm's force
-        has passed the target going in `direction` (+1 pressing, -1 easing off); None, or why the press
-        must stop."""
+        has passed the target the way the press goes (pressing on past it, or easing off below it); None,
+        or why the press must stop."""
         arm, period = self.cell.arm, self.cell.clock.period
         history: deque = deque(maxlen=max(3, round(LAG_WINDOW_S / period)))
         felt_recent: deque = deque(maxlen=max(3, self.p.smoothing))
@@ -196,9 +196,9 @@ class PressWithForce(UsesModel, ProgramSkill):
                 return why
             error = self.p.target - force
             within = within + 1 if abs(error) <= self.p.tolerance else 0
-            if len(felt_recent) == felt_recent.maxlen and direction * (float(np.mean(felt_recent)) - self.p.target) > self.p.tolerance:
-                break  # the arm feels the target passed: stand and correct from there
             speed = float(np.clip(self.p.gain * error, -self.p.max_speed, self.p.max_speed))
+            if len(felt_recent) == felt_recent.maxlen and np.sign(speed) * (np.mean(felt_recent) - self.p.target) > self.p.tolerance:
+                break  # the arm feels the target passed the way the press goes: stand and correct from there
             arm.speed_linear(np.r_[axis * speed, 0.0, 0.0, 0.0])
             self.feedback_message = f"pressing with {force:.2f} N of {self.p.target:.2f} N (learned, lag {lag:.2f} s)"
             yield

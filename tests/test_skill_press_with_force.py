@@ -72,6 +72,16 @@ def test_press_with_force_on_a_lagging_skin_of_another_gain_ends_at_the_target(l
     assert _lag_reported(h) == pytest.approx(lag, abs=0.15)
 
 
+def test_press_with_force_starting_past_the_target_eases_off_even_when_the_learned_force_reads_low():
+    """The contact search stopped at 8 N; the skin reads half the load. Before, the learned force
+    (4 N of 5) pressed on to 20 N before the arm's force stopped it (randomised seed 1)."""
+    h = one_skill("{target: 5.0}")
+    felt: list[float] = []
+    h.script(stick_on_scale(h, lag=0.75, gain=0.5, felt=felt, gap=-0.002))
+    assert h.run_until_done(3000).name == "SUCCESS", h.feedback("s")
+    assert felt[-1] == pytest.approx(5.0, abs=0.3) and max(felt) < 8.0 + 1.0
+
+
 def _lag_reported(h) -> float:
     return float(h.feedback("s").split("skin lag ")[1].split(" s")[0])
 
