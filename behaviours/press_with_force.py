@@ -18,8 +18,9 @@ What a real cell gives the skill is measured on the spot, not read from constant
   folds one noisy reading into it. Without that key the reading is taken as zeroed.
 - **Whether the target was reached** is judged standing still on the TCP force averaged over a
   `window` (no lag, its noise averaged), within the tolerance or twice the mean's measured noise. A
-  stand short of or past the target is corrected by a position step (secant on the stands' force
-  against depth: the contact's stiffness, measured), up to `max_steps` times.
+  stand short of or past the target is corrected by a position step (the least-squares slope of
+  the stands' force against depth: the contact's stiffness, measured; a small probe step while they
+  are too close together to show it), up to `max_steps` times.
 
 docs/robustness.md has the figures on the randomised cell."""
 
@@ -44,6 +45,8 @@ from perception.learning.features import tick_features
 
 LAG_WINDOW_S = 0.3  # s of shown force whose slope undoes the skin's lag
 MAX_STEP = 0.003  # m, the largest correcting step between two stands
+MIN_SPREAD = 0.0002  # m of depth between stands below which their forces show noise, not stiffness
+PROBE_STEP = 0.0003  # m towards the target when the stands show no stiffness yet
 
 
 @register
@@ -122,16 +125,16 @@ class PressWithForce(UsesModel, ProgramSkill):
                                          f"{lag:.2f} s, learned force x{scale:.2f})")
                 return Status.SUCCESS
             step = correction(stands, self.p.target)
-            if step is None:
-                return self.fail(f"the arm's force does not change with the press ({stands[-1][1]:.2f} N after "
-                                 f"{stands[-1][0] * 1000:.1f} mm): is its force sensor reading the press?")
+            if step is None:  # too close together to show the stiffness: a small step the way the force must go
+                step = PROBE_STEP if stand.felt < self.p.target else -PROBE_STEP
             pose = self.pose().copy()
             pose[:3] += axis * step
             why = yield from self.move(pose, self.p.max_speed, watch=lambda: self._trouble(read()[1]))
             if why:
                 return self.fail(why)
         return self.fail(f"the force did not settle within {self.p.tolerance} N of {self.p.target} N in "
-                         f"{self.p.max_steps} steps (now {stands[-1][1]:.2f} N by the arm's force sensor)")
+                         f"{self.p.max_steps} steps (now {stands[-1][1]:.2f} N by the arm's force sensor, "
+                         f"{stands[-1][0] * 1000:.1f} mm pressed): is the force sensor reading the press?")
 
     def _reached(self, stand: Stand) -> bool:
         return abs(stand.felt - self.p.target) <= max(self.p.tolerance, 2.0 * stand.felt_noise)
@@ -255,16 +258,17 @@ def time_constant(values: list[float], final: float, noise: float, period: float
 
 def correction(stands: list[tuple[float, float]], target: float) -> float | None:
     """The step (m along the press) from the last stand to the target force, by the stiffness the
-    stands show (a secant over the last two at different depths with force on both; None when they
-    show none), at most MAX_STEP."""
-    depth, force = stands[-1]
-    for other_depth, other_force in reversed(stands[:-1]):
-        if abs(depth - other_depth) > 1e-5 and max(force, other_force) > 0.5:
-            stiffness = (force - other_force) / (depth - other_depth)
-            if stiffness <= 0.0:
-                return None
-            return float(np.clip((target - force) / stiffness, -MAX_STEP, MAX_STEP))
-    return None
+    stands show (the least-squares slope of force against depth over the stands that felt force, at
+    least MIN_SPREAD apart in depth; None when they show no stiffness), at most MAX_STEP."""
+    force = stands[-1][1]
+    loaded = np.array([s for s in stands if s[1] > 0.5])
+    if len(loaded) < 2 or np.ptp(loaded[:, 0]) < MIN_SPREAD:
+        return None
+    d, f = loaded[:, 0] - loaded[:, 0].mean(), loaded[:, 1]
+    stiffness = float(d @ (f - f.mean()) / (d @ d))
+    if stiffness <= 0.0:
+        return None
+    return float(np.clip((target - force) / stiffness, -MAX_STEP, MAX_STEP))
 
 
 def slope(history: deque) -> float:
