@@ -119,6 +119,6 @@ def test_a_press_that_goes_on_past_its_target_ends_task_failed(tmp_path):
     rule: SUCCESS (the bench flagged it)."""
     summary = _run(tmp_path, "press", ["{skill: gentle_grasp, name: grasp, params: {squeeze: 0.002}}",
                                        "{skill: descend_until_contact, name: touch, params: {speed: 0.005, eps: 0.3}}",
-                                       "{skill: move_to, name: push, params: {offset: [0.0, 0.0, -0.002], speed: 0.0005}}"],
+                                       "{skill: move_to, name: push, params: {offset: [0.0, 0.0, -0.002], speed: 0.001}}"],
                    "{press_force_N: 5.0}")
     _failed(summary, "the press ends with the scale at ")

@@ -143,7 +143,7 @@ def test_steady_waits_for_a_slow_skin_and_tolerates_noise():
 
 def test_correction_steps_by_the_measured_stiffness():
     assert correction([(0.0, 3.0), (0.001, 7.0)], 5.0) == pytest.approx(-0.0005)  # 4000 N/m: back half a mm
-    assert correction([(0.0, 3.0), (0.0005, 5.2), (0.001, 6.8)], 5.0) == pytest.approx(-0.00045)  # fitted: 3800 N/m
+    assert correction([(0.0, 3.0), (0.0005, 5.2), (0.001, 6.8)], 5.0) == pytest.approx(-1.8 / 3800)  # fitted: 3800 N/m
     assert correction([(0.0, 3.0)], 5.0) is None  # one stand shows no stiffness
     assert correction([(0.0, 4.5), (0.0001, 4.4)], 5.0) is None  # 0.1 mm apart: noise, not stiffness
     assert correction([(0.0, 0.1), (0.001, 0.1)], 5.0) is None  # nothing felt at either
