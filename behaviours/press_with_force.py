@@ -124,6 +124,10 @@ class PressWithForce(UsesModel, ProgramSkill):
                 self.feedback_message = (f"pressing with {stand.felt:.2f} N (target {self.p.target:.2f} N; skin lag "
                                          f"{lag:.2f} s, learned force x{scale:.2f})")
                 return Status.SUCCESS
+            if stand.felt < 0.5 and scale * stand.shown > 0.5 * self.p.target:
+                return self.fail(f"the learned force reads {scale * stand.shown:.2f} N but the arm's force sensor "
+                                 f"feels {stand.felt:.2f} N: it does not read the press, so the target cannot be "
+                                 "judged (is the sensor zeroed, or blind along the press?)")
             step = correction(stands, self.p.target)
             if step is None:  # too close together to show the stiffness: a small step the way the force must go
                 step = PROBE_STEP if stand.felt < self.p.target else -PROBE_STEP

@@ -27,7 +27,7 @@ def one_skill(params: str = "{}") -> TreeHarness:
 
 
 def stick_on_scale(h, stiffness: float = 4000.0, lag: float = 0.0, gain: float = 1.0,
-                   felt: list[float] | None = None, gap: float = 0.002) -> Callable:
+                   felt: list[float] | None = None, gap: float = 0.002, arm_feels: bool = True) -> Callable:
     """A stick whose tip meets a surface `gap` below the start and is pushed back by it; the arm's TCP
     feels that push at once, the skin shows it through a first-order `lag` (s) and `gain` times too
     much; `felt` collects the true force each tick."""
@@ -36,7 +36,7 @@ def stick_on_scale(h, stiffness: float = 4000.0, lag: float = 0.0, gain: float =
 
     def script(tick, t):
         force = stiffness * max(0.0, z0 - h.arm.pose()[2]) if stiffness else 0.0
-        h.cell.world.arm.external_wrench = np.array([0.0, 0.0, force, 0.0, 0.0, 0.0])
+        h.cell.world.arm.external_wrench = np.array([0.0, 0.0, force if arm_feels else 0.0, 0.0, 0.0, 0.0])
         if felt is not None:
             felt.append(force)
         follow = 1.0 - math.exp(-(t - shown[1]) / lag) if lag > 0.0 else 1.0
@@ -80,6 +80,14 @@ def test_press_with_force_starting_past_the_target_eases_off_even_when_the_learn
     h.script(stick_on_scale(h, lag=0.75, gain=0.5, felt=felt, gap=-0.002))
     assert h.run_until_done(3000).name == "SUCCESS", h.feedback("s")
     assert felt[-1] == pytest.approx(5.0, abs=0.3) and max(felt) < 8.0 + 1.0
+
+
+def test_press_with_force_fails_when_the_arm_does_not_feel_the_press():
+    h = one_skill("{target: 4.0}")
+    felt: list[float] = []
+    h.script(stick_on_scale(h, felt=felt, arm_feels=False))
+    assert h.run_until_done(1500).name == "FAILURE"
+    assert "does not read the press" in h.feedback("s") and max(felt) < 4.0 + 1.0
 
 
 def _lag_reported(h) -> float:
