@@ -5,7 +5,8 @@ Neither sensor is trusted to read zero or to be still: before moving, the skill 
 `reference_ticks` and takes each one's mean there as its zero (for the arm's TCP force this is the
 zeroing a real UR needs: it reads several newtons of pose- and payload-dependent offset; a cell
 that offers `zero_force_sensor` is zeroed first, as ur_rtde's zeroFtSensor does) and its rest
-noise. Contact is a change beyond `noise_factor` times that noise, and never less than `eps`
+noise; that zero is written for a press that follows (`/task/force_zero`: a zeroing folds one noisy
+reading into the sensor's zero, the mean over the reference ticks does not). Contact is a change beyond `noise_factor` times that noise, and never less than `eps`
 (px) or `force_eps` (N). The fingertips are read along their surfaces (shear, summed over both):
 a held object touching down is pushed along the fingers, while the closing axis carries the grip.
 Each marker's force is compared with its own reference, averaged over the markers tracked now: under
@@ -47,7 +48,7 @@ class DescendUntilContact(ProgramSkill):
     }
     READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT, keys.ROBOT_WRENCH)
     NEEDS = ("surface",)
-    WRITES = (keys.CONTACT_POSE,)
+    WRITES = (keys.CONTACT_POSE, keys.FORCE_ZERO)
 
     def program(self):
         arm = self.cell.arm
@@ -83,6 +84,7 @@ class DescendUntilContact(ProgramSkill):
             if change > eps or 0.0 < force_eps < felt:
                 arm.stop()
                 self.write(keys.CONTACT_POSE, pose)
+                self.write(keys.FORCE_ZERO, w0.tolist())
                 return Status.SUCCESS
             fault = self.arm_fault()
             if fault:

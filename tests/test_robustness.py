@@ -24,10 +24,6 @@ HEAVY = {"assembly_heavy.yaml"}  # the longest demo: in the slow suite only
 SHORT = {
     "classify_substance.yaml": "StirLearn's model was trained on the nominal sensor: a drawn rest jitter, gain "
                                "or skin lag moves its features enough to misread a bowl on most seeds",
-    "press_with_force.yaml": "the force loop presses on while a lagging skin (up to 1 s) still shows less than "
-                             "the load: SUCCESS with the scale up to 13.6 N off the 5 N target",
-    "press_release.yaml": "the same force loop: the press scene's verdict finds the scale 2.5 N (offset 6.3 N) and "
-                          "26 N (lag 0.75 s) off the 5 N target on seeds 0 and 1",
 }
 
 

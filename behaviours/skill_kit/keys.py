@@ -17,6 +17,7 @@ ELEMENT_POSE = "/task/element_pose"
 ELEMENT_LENGTH = "/task/element_length"
 GRASP_WIDTH = "/task/grasp_width"
 CONTACT_POSE = "/task/contact_pose"
+FORCE_ZERO = "/task/force_zero"  # the TCP force read at rest before contact (N, base frame): a press's zero
 LOAD_PROFILE = "/task/load_profile"
 LOAD_SCAN = "/task/load_scan"  # the scan in progress: its samples grow in place (for live views)
 BEST_POSE = "/task/best_pose"

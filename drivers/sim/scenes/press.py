@@ -6,7 +6,8 @@ learned force model is trained on.
 The pads show that load as shear with the partial-slip softening of a Hertz-Mindlin contact:
 as the load nears the grip's friction capacity the gel shears more per newton, so the marker
 field is not linear in the force (one reason to learn the mapping). Past the capacity the stick
-slides up in the grip. Let go (no squeeze left), the stick stays upright in its holder, resting
+slides up in the grip. The arm's TCP force reads what the stick puts on the hand (its weight once
+squeezed, the holder only guiding it, and the scale's push once it touches), as a real arm pressing through its grip feels the press. Let go (no squeeze left), the stick stays upright in its holder, resting
 on the scale with its own weight, between the open fingers.
 
 The stick's material (scene arg `object`, `drivers.sim.models.objects`) sets its grip on the pads
@@ -91,15 +92,20 @@ class PressScene(PickedScene):
 
     def step(self, dt: float) -> None:
         squeeze = self.carry(dt)
-        if squeeze is None:
+        if squeeze is None:  # squeezed in its holder, which only guides it, the stick's weight is the hand's
+            weight = -self.mass * GRAVITY if self.gripper.squeeze_force() > 0.0 else 0.0
+            self.arm.external_wrench = np.array([0.0, 0.0, weight, 0.0, 0.0, 0.0])
             return
         if self.released or squeeze <= 0.0:
             self.released = True
             self.force, self._load, self.grip.speed = self.mass * GRAVITY, np.zeros(3), 0.0
+            self.arm.external_wrench = np.zeros(6)
             return
         self.force = max(0.0, self.contact_stiffness * (self._scale_z - self.tip()[2]))
         self._pressed.append(self.force)
-        self._load = tool_rotation(self.arm).T @ np.array([0.0, 0.0, self.force - self.mass * GRAVITY])
+        on_stick = np.array([0.0, 0.0, self.force - self.mass * GRAVITY])  # base frame: the scale and gravity
+        self._load = tool_rotation(self.arm).T @ on_stick
+        self.arm.external_wrench = np.r_[on_stick, 0.0, 0.0, 0.0]  # the hand carries the stick: its TCP feels it
         self.grip.step(self._load[[0, 2]], 2 * squeeze, dt)
 
     def contacts(self):
