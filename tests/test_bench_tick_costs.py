@@ -63,9 +63,12 @@ def test_the_speed_and_cost_parts_write_their_tables_and_chart(tmp_path):
     assert (tmp_path / "ticks_options.png").stat().st_size > 5_000
     costs = {r["check or model"]: r for r in read_csv(tmp_path / "ticks_costs.csv")}
     assert {c.name for c in tick_costs.COSTS} <= set(costs)
-    assert float(costs["arm model (latency, acceleration)"]["calls per tick"]) == 1.0  # one cell step a tick
-    assert float(costs["skin model (lag, creep, hysteresis)"]["calls per tick"]) == 2.0  # one skin a fingertip
-    assert float(costs["Groot2 publish (monitor hook)"]["calls per tick"]) == 1.0
+    def calls(name):
+        return float(costs[name]["calls per tick"])
+    # One cell step a tick (and a few while the arm comes to rest after the run stops), one skin a fingertip.
+    assert calls("arm model (latency, acceleration)") == pytest.approx(1.0, abs=0.05)
+    assert calls("skin model (lag, creep, hysteresis)") == pytest.approx(2.0, abs=0.1)
+    assert calls("Groot2 publish (monitor hook)") == pytest.approx(1.0, abs=0.05)
     assert float(costs["frozen-region check (per-region staleness)"]["calls per tick"]) > 0.0
     assert costs["TCP force-sensor model"]["whole tick µs, off"] != ""  # its side-by-side run was made
     md = (tmp_path / "ticks.md").read_text()

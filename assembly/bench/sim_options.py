@@ -29,6 +29,7 @@ import yaml
 from drivers.cell_file import resolve_cell_path
 from drivers.sim.models.force_sensor import ForceSensorConfig
 from drivers.sim.scenes import randomise
+from perception.sensor_profile import SensorProfile
 
 SKIN_OFF = {"skin_lag_s": 0.0, "skin_creep_share": 0.0}
 JITTER_OFF = {"rest_jitter_px": 0.0}
@@ -97,14 +98,17 @@ def pinned(chosen: SimOption) -> Iterator[None]:
         return
     draw_sensor, draw_force = randomise.sensor_profile, randomise.force_sensor
 
-    def sensor_profile(profile, seed: int):
-        return dataclasses.replace(draw_sensor(profile, seed), **chosen.sensor)
+    sensor: dict[str, Any] = dict(chosen.sensor)
+    force: dict[str, Any] = dict(chosen.force_sensor)
+
+    def sensor_profile(profile: SensorProfile, seed: int) -> SensorProfile:
+        return dataclasses.replace(draw_sensor(profile, seed), **sensor)
 
     def force_sensor(config: ForceSensorConfig, seed: int) -> ForceSensorConfig:
-        return dataclasses.replace(draw_force(config, seed), **chosen.force_sensor)
+        return dataclasses.replace(draw_force(config, seed), **force)
 
-    randomise.sensor_profile, randomise.force_sensor = sensor_profile, force_sensor  # type: ignore[assignment]
+    randomise.sensor_profile, randomise.force_sensor = sensor_profile, force_sensor
     try:
         yield
     finally:
-        randomise.sensor_profile, randomise.force_sensor = draw_sensor, draw_force  # type: ignore[assignment]
+        randomise.sensor_profile, randomise.force_sensor = draw_sensor, draw_force

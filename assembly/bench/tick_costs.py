@@ -30,6 +30,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from assembly.bench import write_csv
 from assembly.bench.sim_options import option, option_cell
@@ -76,13 +77,13 @@ def timed_calls(targets: tuple[str, ...]) -> Iterator[dict[str, list[float]]]:
         for target in targets:
             module, _, qualified = target.partition(":")
             owner_name, _, method = qualified.rpartition(".")
-            owner = importlib.import_module(module)
+            owner: Any = importlib.import_module(module)
             for part in owner_name.split("."):
                 owner = getattr(owner, part)
             original = vars(owner).get(method)
             if original is None:
                 raise RuntimeError(f"tick costs: {target} is gone; update assembly/bench/tick_costs.py")
-            undo.append((owner, method, original))  # type: ignore[arg-type]
+            undo.append((owner, method, original))
             setattr(owner, method, timed(original, sinks[target]))
         yield sinks
     finally:

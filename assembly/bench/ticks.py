@@ -42,6 +42,7 @@ def _one_run(timed: bool, seed: int = 0, cell_file: str = "sim"):
     doc, times, result, cell = done.doc, done.times, done.result, done.cell
     if result.status != "SUCCESS":
         raise RuntimeError(f"benchmark run ended {result.status}: {result.message}")
+    assert cell.world is not None and doc.design is not None  # the sim cell's assembly scene, the tree's design
     truth = cell.world.truth()
     regrets = [truth[e]["regret"] for e in doc.design.build_order()]
     return doc, times, result, regrets
