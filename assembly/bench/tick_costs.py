@@ -119,6 +119,7 @@ def _cells(out_dir: Path) -> dict[tuple[str, str | None], str]:
             if mode == "pixels":
                 data = yaml.safe_load(path.read_text())
                 data["pixel_workers"] = False
+                path.unlink()
                 path = path.with_name(path.stem + "_one_process.yaml")
                 path.write_text(yaml.safe_dump(data))
             cells[(mode, off)] = str(path)
@@ -289,8 +290,10 @@ def markdown(table: list[dict], repeats: int, pixels_time: float) -> list[str]:
               "`feel`). µs per call: their median call; own calls µs per tick: that times the calls per tick (robust "
               "to a loaded machine's pauses); mean µs per tick: their total time over the ticks. Whole tick: the "
               "median tick (handlers, tree and cell step) of the run with it on and of the run with it off; "
-              "their difference is within the machine's noise for checks of a few µs. The two-way scan's row "
-              "compares CPU µs per tick of whole runs."), "",
+              "their difference is everything the switch changes downstream (markers without rest jitter also "
+              "spare the pipeline work on a still skin) and within the machine's noise for checks of a few µs. "
+              "The mean takes in the pauses a loaded machine puts into a call; the median does not. The two-way "
+              "scan's row compares CPU µs per tick of whole runs."), "",
              ("| check or model | mode | timed | calls per tick | µs per call | own calls µs per tick | mean µs per "
               "tick | whole tick µs, on | whole tick µs, off | difference µs | off for the comparison |"),
              "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---|"]
