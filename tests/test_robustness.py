@@ -94,4 +94,4 @@ def test_the_bench_writes_its_table_json_and_chart(tmp_path):
 
 def test_the_sweep_options_belong_to_the_robustness_bench(tmp_path, capsys):
     assert main(["bench", "seeds", "--seeds", "3", "--out", str(tmp_path)]) == 2
-    assert "apply to `fvtree bench robustness` only" in capsys.readouterr().err
+    assert "do not apply to `fvtree bench seeds`" in capsys.readouterr().err

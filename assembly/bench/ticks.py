@@ -6,138 +6,46 @@ recorded, with its run directory, design bridge and transition log, heap frozen)
 tick's parts (each pre- and post-tick handler by the runner's name for it: stop policy, perception,
 supervisor, recorder, ...; the tree tick; the cell step) and each behaviour's own `update`; then runs
 it in pixel mode (each finger's frame rendered and put through the real FingerVision pipeline), the
-two fingertips processed in parallel and in one process, alternating. Writes ticks.csv, ticks.md and ticks.png. Targets: tree tick under 0.5 ms median (room for a 500 Hz
-robot loop), the whole simulated assembly at least 100x faster than real time in
-signals mode and 10x in pixel mode, and force regret under 1 % with 2 % force noise.
+two fingertips processed in parallel and in one process, alternating. Writes ticks.csv, ticks.md and
+ticks.png. Targets: tree tick under 0.5 ms median (room for a 500 Hz robot loop), the whole simulated
+assembly at least 100x faster than real time in signals mode and 10x in pixel mode, and force regret
+under 1 % with 2 % force noise.
+
+Two more parts (`--parts`; all three by default) go beside it in ticks.md:
+- `options` (`assembly.bench.speed_accuracy`): both modes' real-time factor beside the assembly's
+  success rate and median regret over randomised seeds (`--seeds`, default 3), once per simulation
+  option (each physics model on and off); ticks_options.csv and the chart ticks_options.png (CPU time
+  per tick against regret).
+- `costs` (`assembly.bench.tick_costs`): each newer check's and model's cost a tick in µs, measured
+  side by side with it off; ticks_costs.csv.
 """
 
 from __future__ import annotations
 
 import csv
-import os
 import statistics
-import tempfile
-import time
-from collections import defaultdict
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from assembly.run.loop import Runner
-from assembly.run.options import RunOptions
-from assembly.run.session import Run
+from assembly.bench import speed_accuracy, tick_costs
+from assembly.bench.tick_timing import TickTimes, assembly_run
 
-TREE = Path(__file__).resolve().parents[2] / "trees" / "assembly.yaml"
 QUICK_PIXEL_SECONDS = 20.0  # --quick: pixel mode over the first seconds of the assembly only
-
-
-class TickTimes:
-    """How long each part of every tick of a runner takes (seconds): each pre- and post-tick handler
-    (named as `stage_name` says), the tree tick between them, the cell step and the whole tick, and
-    each leaf behaviour's own `update`. Wraps the runner's handlers, leaves and `tick` in place."""
-
-    def __init__(self, runner: Runner):
-        self.runner = runner
-        self._last_mark = 0.0
-        self.parts: dict[str, list[float]] = defaultdict(list)
-        self.behaviour_times: dict[str, list[float]] = defaultdict(list)
-        for path, node in runner.tree.nodes.items():
-            if not node.children:  # leaves: skills and conditions
-                node.update = _timed(node.update, self.behaviour_times[path])  # type: ignore[method-assign]
-        tree = runner.behaviour_tree
-        # Parts in tick order: the marks time the tree tick (between the pre- and post-tick
-        # handlers) and the cell step (after the post-tick handlers).
-        pre = [_timed(h, self.parts[self.stage_name(h)]) for h in tree.pre_tick_handlers]
-        tree_tick = self.parts["tree tick"]
-        post = [_timed(h, self.parts[self.stage_name(h)]) for h in tree.post_tick_handlers]
-        self._cell_step, self._whole_tick = self.parts["cell step"], self.parts["whole tick"]
-        tree.pre_tick_handlers[:] = [*pre, self._mark]
-        tree.post_tick_handlers[:] = [lambda _: tree_tick.append(time.perf_counter() - self._last_mark),
-                                      *post, self._mark]
-        self._tick = runner.tick
-        runner.tick = self._timed_tick  # type: ignore[method-assign]  # the loop calls the instance's tick
-
-    def stage_name(self, handler) -> str:
-        """A tick handler's stage: the runner's attribute holding it or the object it is a method
-        of ("recorder", "stop policy"), its own name for a method of the runner ("kick watchdog"),
-        else its class; unique (a second handler of one name gets " 2")."""
-        owner = getattr(handler, "__self__", None)
-        if owner is self.runner:
-            name = handler.__name__
-        else:
-            name = next((attr for attr, value in vars(self.runner).items()
-                         if value is handler or (owner is not None and value is owner)), type(handler).__name__)
-        name = name.strip("_").replace("_", " ")
-        n = 1
-        while (f"{name} {n}" if n > 1 else name) in self.parts:
-            n += 1
-        return f"{name} {n}" if n > 1 else name
-
-    def _mark(self, tree) -> None:
-        self._last_mark = time.perf_counter()
-
-    def _timed_tick(self):
-        start = time.perf_counter()
-        status = self._tick()
-        end = time.perf_counter()
-        self._cell_step.append(end - self._last_mark)
-        self._whole_tick.append(end - start)
-        return status
-
-
-def _timed(function, sink: list[float]):
-    """`function`, appending the seconds each call takes to `sink`."""
-    clock = time.perf_counter
-
-    def timed(*args):
-        t0 = clock()
-        result = function(*args)
-        sink.append(clock() - t0)
-        return result
-    return timed
 
 
 def _one_run(timed: bool, seed: int = 0, cell_file: str = "sim"):
     """One full assembly on a fresh tree and design (a run marks the design's elements placed)."""
-    doc, times, result, cell, _ = _assembly(timed, seed, cell_file)
+    done = assembly_run(timed, seed, cell_file)
+    doc, times, result, cell = done.doc, done.times, done.result, done.cell
     if result.status != "SUCCESS":
         raise RuntimeError(f"benchmark run ended {result.status}: {result.message}")
+    assert cell.world is not None and doc.design is not None  # the sim cell's assembly scene, the tree's design
     truth = cell.world.truth()
     regrets = [truth[e]["regret"] for e in doc.design.build_order()]
     return doc, times, result, regrets
-
-
-def _assembly(timed: bool, seed: int, cell_file: str = "sim", perception: str | None = None,
-              max_time: float = 3600.0):
-    """(document, tick times or None, result, cell, CPU seconds of the run) of one assembly run as
-    `fvtree run` runs it (supervised, recorded with camera frames at the default rate, a run
-    directory with its design bridge and transition log, heap frozen; no progress line); on a shared
-    machine other processes add wall time but not CPU time. The CPU time includes the pixel-mode
-    worker processes'."""
-    with tempfile.TemporaryDirectory() as tmp:
-        options = RunOptions(cell=cell_file, seed=seed, perception=perception, max_time=max_time,
-                             runs_dir=Path(tmp), plots=False, quiet=True)
-        with Run(TREE, options) as run:
-            times = TickTimes(run.runner) if timed else None
-            cpu = time.process_time()
-            result = run.loop()
-            cpu = time.process_time() - cpu + _workers_cpu(run.cell)
-            run.finish(result)  # the event log's end goes in and the recording's file is complete
-    return run.doc, times, result, run.cell, cpu
-
-
-def _workers_cpu(cell) -> float:
-    """CPU seconds the cell's perception worker processes have used (pixel mode's fingers in
-    parallel; 0 without workers), read before the cell closes them."""
-    total = 0.0
-    for process in getattr(cell.sense, "processes", {}).values():
-        try:
-            fields = Path(f"/proc/{process.pid}/stat").read_text().rsplit(")", 1)[1].split()
-        except (OSError, IndexError):
-            continue
-        total += (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")  # utime + stime
-    return total
 
 
 PIXEL_SETUPS = {"fingers in parallel": {}, "one process": {"pixel_workers": False}}
@@ -152,8 +60,8 @@ def _pixel_runs(out_dir: Path, repeats: int, quick: bool) -> dict[str, list[tupl
     runs: dict[str, list[tuple]] = {name: [] for name in PIXEL_SETUPS}
     for seed in range(repeats):
         for name, cell_file in cells.items():
-            _, _, result, _, cpu = _assembly(False, seed, cell_file, perception="pixels", max_time=limit)
-            runs[name].append((result, result.sim_time / max(cpu, 1e-9)))
+            done = assembly_run(False, seed, cell_file, perception="pixels", max_time=limit)
+            runs[name].append((done.result, done.cpu_factor))
     return runs
 
 
@@ -194,15 +102,52 @@ class Measured:
         return {name: [r.real_time_factor for r, _ in runs] for name, runs in self.pixel_runs.items()}
 
 
-def run(out_dir: Path, quick: bool = False) -> list[Path]:
-    """Measure; write ticks.csv, ticks.md and ticks.png."""
+PARTS = ("ticks", "options", "costs")
+QUICK_OPTION_SECONDS = 10.0  # --quick: each option's runs over the first seconds only (nothing placed: no regret)
+
+
+def run(out_dir: Path, quick: bool = False, parts: Sequence[str] = PARTS, seeds: int | None = None) -> list[Path]:
+    """Measure the chosen `parts`; write ticks.md and each part's table and chart."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    measured = _measure(out_dir, quick)
-    rows = _rows(measured)
-    md = _markdown(measured, rows)
-    print("\n".join(md[2:9]))
-    return [_write_csv(rows, out_dir / "ticks.csv"), _write_text("\n".join(md), out_dir / "ticks.md"),
-            _chart(measured, rows, out_dir / "ticks.png")]
+    md = ["# Tick cost of trees/assembly.yaml on the simulated cell", "", f"Code: {_revision()}.", ""]
+    written: list[Path] = []
+    if "ticks" in parts:
+        measured = _measure(out_dir, quick)
+        rows = _rows(measured)
+        lines = _markdown(measured, rows)
+        print("\n".join(lines[:7]))
+        md += lines
+        written += [_write_csv(rows, out_dir / "ticks.csv"), _chart(measured, rows, out_dir / "ticks.png")]
+    if "options" in parts:
+        count = seeds or (1 if quick else speed_accuracy.SEEDS)
+        runs = speed_accuracy.measure(out_dir, count, max_time=QUICK_OPTION_SECONDS if quick else 3600.0)
+        print("\n".join(speed_accuracy.headline(runs, count)))
+        md += speed_accuracy.markdown(runs, count)
+        written += [speed_accuracy.write_table(runs, out_dir / "ticks_options.csv"),
+                    speed_accuracy.chart(runs, out_dir / "ticks_options.png")]
+    if "costs" in parts:
+        repeats, pixels_time = (1, 3.0) if quick else (3, QUICK_PIXEL_SECONDS)
+        costs = tick_costs.rows(tick_costs.measure(out_dir, repeats, QUICK_OPTION_SECONDS if quick else 3600.0,
+                                                   pixels_time))
+        md += tick_costs.markdown(costs, repeats, pixels_time)
+        written.append(tick_costs.write_table(costs, out_dir / "ticks_costs.csv"))
+    return [*written, _write_text("\n".join(md), out_dir / "ticks.md")]
+
+
+def _revision() -> str:
+    """The git commit the measured code is at (with `+ changes` when the work tree differs), or
+    'not a git checkout'."""
+    import subprocess
+
+    where = Path(__file__).resolve().parent
+    try:
+        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=where, capture_output=True, text=True,
+                                check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=where,
+                               capture_output=True, text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "not a git checkout"
+    return f"commit {commit}" + (" + uncommitted changes" if dirty else "")
 
 
 def _measure(out_dir: Path, quick: bool) -> Measured:
@@ -253,7 +198,7 @@ def _write_text(text: str, path: Path) -> Path:
 def _markdown(m: Measured, rows: list[tuple]) -> list[str]:
     low, high = m.regrets[0.02], m.regrets[0.05]
     return [
-        "# Tick cost of trees/assembly.yaml on the simulated cell",
+        "## Tick parts, real-time factor and regret on the sim cell",
         "",
         f"- tree tick median: **{m.tree_median_ms:.3f} ms** (target < 0.5 ms)",
         (f"- simulated assembly real-time factor, median of {m.repeats} runs: **{statistics.median(m.factors):.0f}x** "
