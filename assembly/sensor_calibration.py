@@ -1,24 +1,28 @@
-"""`fvtree calibrate-sensor`: measure a FingerVision sensor's gains and rest noise against known loads
-and write a sensor profile a cell file can name, as a lab would make one for its own sensor.
+"""`fvtree calibrate-sensor`: measure a FingerVision sensor's gains, rest noise and skin response
+against known loads and write a sensor profile a cell file can name, as a lab would make one for its
+own sensor.
 
 On a cell with the press scene (a stick held between the fingertips above an electronic scale):
 
 1. rest: the fingers open, nothing touching, for `rest_ticks`: the markers' median frame-to-frame
    step (`rest_jitter_px`) and the lag-1 autocorrelation of their positions (`jitter_persistence`);
-2. normal: the gripper closes on the stick at set forces (`grip_forces`, N; the gripper's force set
-   point is the known load, as a lab checks with a grip gauge), each held `hold_ticks`: the markers'
-   mean distance from rest per newton (`normal_px_per_n`, the slope of a line through the steps: a
-   load the skin has not yet shown, equal at every step, falls into the intercept);
-3. shear: holding the stick at the last grip force, the arm lifts it, finds the scale and presses it
-   down in `press_steps` steps of `press_step_m`; each pad carries half the scale's reading along
-   the stick: the markers' mean motion along it per newton (`shear_px_per_n`, the slope at zero load
-   of a Hertz-Mindlin partial-slip curve through the steps: a grip nearing its friction capacity
-   shears more per newton);
-4. response: still holding the stick, the arm rests it on the scale at `base_n`, steps the load up by
-   `step_n` (the depth from the shear steps' scale stiffness), holds it `response_hold_s`, steps back
-   down and holds again, as a lab presses and holds with the scale: the skin's lag, hysteresis and (if
-   told apart from noise) creep are fitted to the markers' motion along the stick against the scale's
-   reading, tick by tick (`assembly.skin_response`).
+2. response: the gripper closes on the stick at the largest grip force; the arm finds the scale,
+   probes its stiffness under the stick, rests the stick on it at `base_n`, steps the load up by
+   `step_n`, holds it `response_hold_s`, steps back down and holds again, as a lab presses and holds
+   with the scale: the skin's lag, hysteresis and (if told apart from noise) creep are fitted to the
+   markers' motion along the stick against the scale's reading, tick by tick
+   (`assembly.skin_response`). Measured first, so that every gain step below is held until this skin
+   shows it (`settle_lags` lags, `settle_creeps` creep times, at most `max_hold_s`; at least
+   `hold_ticks`);
+3. shear: still at that grip, the arm finds the scale again and presses the stick down in
+   `press_steps` steps of `press_step_m`; each pad carries half the scale's reading along the stick:
+   the markers' mean motion along it per newton (`shear_px_per_n`, the slope at zero load of a
+   Hertz-Mindlin partial-slip curve through the steps: a grip nearing its friction capacity shears
+   more per newton);
+4. normal: lifted, the gripper holds the stick at set forces (`grip_forces`, N, from the largest
+   down; the gripper's force set point is the known load, as a lab checks with a grip gauge): the
+   markers' mean distance from rest per newton (`normal_px_per_n`, the slope of a line through the
+   steps: a load the skin has not yet shown, alike at every step, falls into the intercept).
 
 Every other number is kept from the cell's own profile with its source; the measured ones carry
 "measured by calibrate_sensor on DATE" and how.
@@ -27,6 +31,7 @@ Every other number is kept from the cell's own profile with its source; the meas
 from __future__ import annotations
 
 import datetime
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -66,6 +71,9 @@ class Plan:
     settle_s: float = 3.0  # s at the base load before the step
     response_hold_s: float = 8.0  # s the step is held, and then the base again
     step_speed: float = 0.05  # m/s of the arm's step (a few ticks)
+    settle_lags: float = 5.0  # the gains' steps held at least this many measured (unloading) lags
+    settle_creeps: float = 3.0  # and this many creep times, when a creep was told apart
+    max_hold_s: float = 30.0  # but no longer than this
 
 
 @dataclass
@@ -80,6 +88,7 @@ class Calibration:
     shear_steps: list[tuple[float, float]]  # (N on the scale, mean px along the stick)
     skin: SkinFit | None = None  # the response fit (None: not measured)
     response: list[tuple[float, float]] | None = None  # (N on the scale, mean px along the stick) each tick
+    hold_ticks: int = 60  # each gain step was held this long (longer for a slow skin)
 
 
 class _Session:
@@ -109,56 +118,58 @@ class _Session:
 
 
 def calibrate(cell: Cell, plan: Plan = Plan()) -> Calibration:
-    """Run the three phases on `cell` (its world must be the press scene, labelling `scale_force`)."""
+    """Run the four phases on `cell` (its world must be the press scene, labelling `scale_force`)."""
     if cell.world is None or "scale_force" not in cell.world.labels():
         raise CalibrationError("calibrate_sensor needs a cell whose scene reads a scale (the press scene)")
     s = _Session(cell)
     jitter, persistence = _rest(s, s.ticks(plan.rest_ticks))
-    normal_steps = []
-    cell.gripper.move(0.0, 0.05, plan.grip_forces[0])
+    cell.gripper.move(0.0, 0.05, max(plan.grip_forces))
     s.ticks(int(2.0 * TICK_HZ))  # the fingers close on the stick
-    for force in plan.grip_forces:
+    skin, response, hold = None, None, plan.hold_ticks
+    if plan.response:  # first, so that the gains' steps are held until this skin has settled
+        response = _respond(s, plan)
+        loads, shown = np.array(response).T
+        skin = fit(loads, shown, 1.0 / TICK_HZ)
+        hold = max(hold, math.ceil(_settle_s(skin, plan) * TICK_HZ))
+    shear_steps = _press(s, plan, hold)
+    normal_steps = []
+    for force in sorted(plan.grip_forces, reverse=True):  # down from the grip the stick is held with
         cell.gripper.move(0.0, 0.05, force)
-        held = s.ticks(plan.hold_ticks)[plan.hold_ticks // 2:]
+        held = s.ticks(hold)[hold // 2:]
         normal_steps.append((force, _spread(s, [st for st, _ in held])))
-    shear_steps, stiffness = _press(s, plan)
     f, px = np.array(normal_steps).T
     normal = float(np.polyfit(f, px, 1)[0])
-    slope, capacity = _mindlin_fit(*np.array(shear_steps).T)
-    shear = 2.0 * slope  # each pad carries half the scale's load
+    shear = 2.0 * _mindlin_slope(*np.array(shear_steps).T)  # each pad carries half the scale's load
     if normal <= 0.0 or shear <= 0.0:
         raise CalibrationError(f"the markers did not move with the load (normal {normal:.4g}, shear {shear:.4g} px/N)")
-    cal = Calibration(normal, shear, jitter, persistence, normal_steps, shear_steps)
-    if plan.response:
-        cal.response = _respond(s, plan, stiffness)
-        loads, shown = np.array(cal.response).T
-        cal.skin = fit(_mindlin(loads, capacity), shown, 1.0 / TICK_HZ)
-    return cal
+    return Calibration(normal, shear, jitter, persistence, normal_steps, shear_steps, skin, response, hold)
 
 
-def _mindlin(force: np.ndarray, capacity: float) -> np.ndarray:
-    """The Hertz-Mindlin partial-slip shear of a grip of `capacity` N under `force`: equal to the force
-    when small, 1.5 times the capacity at it."""
-    return 1.5 * capacity * (1.0 - np.clip(1.0 - force / capacity, 0.0, None) ** (2.0 / 3.0))
+def _settle_s(skin: SkinFit, plan: Plan) -> float:
+    """How long a gain step must be held for `skin` to show most of it: `settle_lags` of its
+    unloading lag, `settle_creeps` of its unloading creep time when a creep was told apart, at most
+    `max_hold_s`."""
+    slower = 1.0 + skin.hysteresis
+    creep = plan.settle_creeps * skin.creep_s * slower if skin.creep_s is not None else 0.0
+    return min(max(plan.settle_lags * skin.lag_s * slower, creep), plan.max_hold_s)
 
 
-def _mindlin_fit(force: np.ndarray, px: np.ndarray) -> tuple[float, float]:
-    """px per newton at zero load of a gripped stick's shear, and the grip's capacity (N): the steps
-    fitted with a Hertz-Mindlin partial-slip curve, px = a + k 1.5 c (1 - (1 - F/c)^(2/3)) (the grip
-    shears more per newton as the load nears its capacity c, which a line or a quadratic would fold
-    into the slope)."""
+def _mindlin_slope(force: np.ndarray, px: np.ndarray) -> float:
+    """px per newton at zero load of a gripped stick's shear: the steps fitted with a Hertz-Mindlin
+    partial-slip curve, px = a + k 1.5 c (1 - (1 - F/c)^(2/3)) (the grip shears more per newton as
+    the load nears its capacity c, which a line or a quadratic would fold into the slope)."""
     from scipy.optimize import curve_fit
 
     def curve(f, a, k, c):
-        return a + k * _mindlin(f, c)
+        return a + k * 1.5 * c * (1.0 - np.clip(1.0 - f / c, 0.0, None) ** (2.0 / 3.0))
 
     line = np.polyfit(force, px, 1)
     try:
-        (_, k, c), _ = curve_fit(curve, force, px, p0=(line[1], line[0], 4.0 * force.max()),
+        (_, k, _), _ = curve_fit(curve, force, px, p0=(line[1], line[0], 4.0 * force.max()),
                                  bounds=([-np.inf, -np.inf, 1.05 * force.max()], [np.inf, np.inf, np.inf]))
     except (RuntimeError, ValueError):
         raise CalibrationError("the shear steps fit no partial-slip curve: press in more, smaller steps") from None
-    return abs(float(k)), float(c)
+    return abs(float(k))
 
 
 def _rest(s: _Session, ticks: list) -> tuple[float, float]:
@@ -231,37 +242,41 @@ def _lift(s: _Session, start: np.ndarray) -> None:
         raise CalibrationError(f"the stick slid {slid} mm in the grip while pressed: grip harder or press less")
 
 
-def _press(s: _Session, plan: Plan) -> tuple[list[tuple[float, float]], float]:
-    """Lift the held stick, find the scale, press it in steps: (scale reading, motion along) per step,
-    and the scale's stiffness under the stick (N/m, a line through the readings against the depth).
-    The steps after the first are shortened so that the last reads at most `max_press_n`."""
+def _press(s: _Session, plan: Plan, hold: int) -> list[tuple[float, float]]:
+    """Lift the held stick, find the scale, press it in steps held `hold` ticks: (scale reading, motion
+    along) per step. The steps after the first are shortened so that the last reads at most
+    `max_press_n` (a stiff scale must not make the stick slip)."""
     arm = s.cell.arm
     start, touched = _find_scale(s, plan)
-    steps, depths, step = [], [], plan.press_step_m
+    steps, step = [], plan.press_step_m
     for i in range(plan.press_steps):
         arm.move_linear(arm.pose() - np.array([0, 0, step, 0, 0, 0]), 0.005)
-        held = s.ticks(plan.hold_ticks)[plan.hold_ticks // 2:]
+        held = s.ticks(hold)[hold // 2:]
         steps.append((float(np.mean([lab["scale_force"] for _, lab in held])), _along(s, [st for st, _ in held])))
-        depths.append(step + (depths[-1] if depths else 0.0))
         if i == 0 and steps[0][0] > touched and plan.press_steps > 1:
             probe = (steps[0][0] - touched) / step  # N/m
             step = min(step, max(plan.max_press_n - steps[0][0], 0.0) / (probe * (plan.press_steps - 1)))
     _lift(s, start)
-    stiffness = float(np.polyfit(depths, [f for f, _ in steps], 1)[0])
-    if stiffness <= 0.0 or step <= 0.0:
-        raise CalibrationError(f"the scale read {', '.join(f'{f:.2f}' for f, _ in steps)} N as the stick was pressed "
-                               f"in: no more with depth, or past max_press_n at once")
-    return steps, stiffness
+    if step <= 0.0:
+        raise CalibrationError(f"the scale read {steps[0][0]:.2f} N at the first step, past max_press_n "
+                               f"({plan.max_press_n:g} N): press in smaller steps")
+    return steps
 
 
-def _respond(s: _Session, plan: Plan, stiffness: float) -> list[tuple[float, float]]:
-    """Rest the stick on the scale at the base load, step the load up, hold, step back, hold: the
-    scale's reading and the markers' mean motion along the stick on every tick from a second before
-    the step (`stiffness`: N per m the stick is pressed, from the shear steps)."""
+def _respond(s: _Session, plan: Plan) -> list[tuple[float, float]]:
+    """Find the scale, probe its stiffness under the stick (one `press_step_m` step), rest the stick on
+    it at the base load, step the load up, hold, step back, hold: the scale's reading and the markers'
+    mean motion along the stick on every tick from a second before the step."""
     arm = s.cell.arm
     start, touched = _find_scale(s, plan)
     down = np.array([0, 0, 1.0, 0, 0, 0])
-    arm.move_linear(arm.pose() - down * (plan.base_n - touched) / stiffness, plan.step_speed)
+    arm.move_linear(arm.pose() - down * plan.press_step_m, 0.005)
+    probed = float(np.mean([labels["scale_force"] for _, labels in s.ticks(int(TICK_HZ))[15:]]))
+    stiffness = (probed - touched) / plan.press_step_m  # N/m
+    if stiffness <= 0.0:
+        raise CalibrationError(f"the scale read {touched:.2f} N touched and {probed:.2f} N pressed "
+                               f"{plan.press_step_m * 1000:g} mm further: no more")
+    arm.move_linear(arm.pose() - down * (plan.base_n - probed) / stiffness, plan.step_speed)
     s.ticks(int(plan.settle_s * TICK_HZ))
     base = arm.pose()
     record = s.ticks(int(TICK_HZ))
