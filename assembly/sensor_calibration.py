@@ -327,10 +327,10 @@ def profile_of(cal: Calibration, base: SensorProfile, name: str, where: str,
         for key in ("skin_creep_share", "skin_creep_s"):
             sources[key] = (f"{base.sources.get(key, 'the base profile').rstrip('.')}; kept: calibrate_sensor on "
                             f"{date} told no creep apart from the markers' noise (a lag alone fitted the response)")
+    fitted: dict[str, Any] = {key: value for key, (value, _) in skin.items()}
     return replace(base, name=name, normal_px_per_n=round(cal.normal_px_per_n, 4),
                    shear_px_per_n=round(cal.shear_px_per_n, 4), rest_jitter_px=round(cal.rest_jitter_px, 4),
-                   jitter_persistence=round(cal.jitter_persistence, 3),
-                   **{key: value for key, (value, _) in skin.items()}, sources=sources)
+                   jitter_persistence=round(cal.jitter_persistence, 3), **fitted, sources=sources)
 
 
 def _skin_numbers(cal: Calibration, how: str) -> dict[str, tuple[float, str]]:

@@ -98,13 +98,13 @@ def fit(u: Sequence[float], y: Sequence[float], dt: float) -> SkinFit:
 
     lo, hi = math.log(LAG_BOUNDS[0]), math.log(LAG_BOUNDS[1])
     lag_fit = min((least_squares(lag_model, [math.log(tau), 0.3], bounds=([lo, 0.0], [hi, MAX_HYSTERESIS]),
-                                 diff_step=1e-3) for tau in (0.03, 0.2, 1.0)), key=lambda r: r.cost)
+                                 diff_step=[1e-3]) for tau in (0.03, 0.2, 1.0)), key=lambda r: r.cost)
     rlo, rhi = math.log(MIN_CREEP_RATIO), math.log(MAX_CREEP_S / LAG_BOUNDS[0])
     starts = [[lag_fit.x[0], lag_fit.x[1], 0.05, min(max(math.log(tc) - lag_fit.x[0], rlo + 0.01), rhi - 0.01)]
               for tc in (1.0, 3.0, 10.0)]
     creep_fit = min((least_squares(creep_model, x0, bounds=([lo, 0.0, 0.0, rlo], [hi, MAX_HYSTERESIS, MAX_CREEP_SHARE,
                                                                                   rhi]),
-                                   diff_step=1e-3) for x0 in starts), key=lambda r: r.cost)
+                                   diff_step=[1e-3]) for x0 in starts), key=lambda r: r.cost)
     n = len(y_arr)
     ss_lag, ss_creep = 2.0 * lag_fit.cost, 2.0 * creep_fit.cost
     dof = n - 6  # offset, gain, lag, hysteresis, creep share and time
