@@ -160,3 +160,9 @@ def test_the_handover_press_scale_and_the_followme_closing_axis_cue_are_drawn(tm
     plain = load_cell("sim", 30.0, "handover_press", {}, seed=3)
     assert plain.world.scale == {}  # not randomised: the press scene's own scale
     plain.close()
+    from assembly.language.catalogue import describe_scenes
+
+    listed = describe_scenes()  # what `fvtree scenes` prints
+    assert {"followme.camera_depth", "followme.pad_stiffness"} <= set(listed["followme"]["randomised"])
+    assert {"handover_press.scale.contact_stiffness", "handover_press.scale.scale_noise"} <= set(
+        listed["handover_press"]["randomised"])
