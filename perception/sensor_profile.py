@@ -58,10 +58,12 @@ class SensorProfile:
     image_size: tuple[int, int] = (320, 240)
     slip_flow_gain: float = 0.65  # slip the pipeline reports per px/frame of marker motion, per unit of object area
     slip_flow_saturation: float = 1.0  # px/frame of marker motion beyond which that slip grows no more
-    skin_lag_s: float = 0.0  # s, time constant of the skin's fast response to a load (0: instant)
-    skin_creep_share: float = 0.0  # share of a load the skin shows only after its slow creep
-    skin_creep_s: float = 0.0  # s, time constant of that creep (and of the relaxation after unloading)
-    skin_hysteresis: float = 0.0  # unloading is (1 + this) times slower than loading
+    # The skin (drivers/sim/models/skin.py); the defaults are the default profile's skin, so a profile file
+    # without them (a lab's, before `fvtree calibrate-sensor` measured its response) gets that skin.
+    skin_lag_s: float = 0.033  # s, time constant of the skin's fast response to a load (0: instant)
+    skin_creep_share: float = 0.05  # share of a load the skin shows only after its slow creep
+    skin_creep_s: float = 3.0  # s, time constant of that creep (and of the relaxation after unloading)
+    skin_hysteresis: float = 0.3  # unloading is (1 + this) times slower than loading
     sources: dict[str, str] = field(default_factory=dict, compare=False)
 
     def __post_init__(self) -> None:

@@ -136,3 +136,33 @@ def test_every_range_is_documented():
             assert ranges[name].why in text and text.split(":")[0].strip()
     assert dataclasses.is_dataclass(randomise.Range)
     assert CellRequest(30.0).seed == 0
+
+
+def test_the_handover_press_scale_and_the_followme_closing_axis_cue_are_drawn(tmp_path):
+    """The scale under the handed-over stick is drawn as the press scene's (its stiffness and noise reach
+    the press part), and the followme fingertips' camera depth and gel stiffness within their ranges."""
+    cell_file = str(randomised_cell(tmp_path, True))
+    ranges = randomise.GROUPS["handover_press.scale"]
+    for seed in (3, 4):
+        cell = load_cell(cell_file, 30.0, "handover_press", {}, seed=seed)
+        scene = cell.world
+        low, high = ranges["contact_stiffness"].bounds(4000.0)
+        assert low <= scene.scale["contact_stiffness"] <= high and scene.scale["contact_stiffness"] != 4000.0
+        scene.handover.phase = "robot"  # the person let go: the press part begins with the drawn scale
+        scene.step(1.0 / 30.0)
+        assert scene.press is not None
+        assert (scene.press.contact_stiffness, scene.press.scale_noise) == (scene.scale["contact_stiffness"],
+                                                                           scene.scale["scale_noise"])
+        cell.close()
+        follow = load_cell(cell_file, 30.0, "followme", {}, seed=seed)
+        assert 0.015 <= follow.world.camera_depth <= 0.03 and 2500.0 <= follow.world.pad_stiffness <= 10000.0
+        follow.close()
+    plain = load_cell("sim", 30.0, "handover_press", {}, seed=3)
+    assert plain.world.scale == {}  # not randomised: the press scene's own scale
+    plain.close()
+    from assembly.language.catalogue import describe_scenes
+
+    listed = describe_scenes()  # what `fvtree scenes` prints
+    assert {"followme.camera_depth", "followme.pad_stiffness"} <= set(listed["followme"]["randomised"])
+    assert {"handover_press.scale.contact_stiffness", "handover_press.scale.scale_noise"} <= set(
+        listed["handover_press"]["randomised"])

@@ -19,7 +19,7 @@ def add_commands(sub: Subparsers) -> None:
     add_perception_option(rec)
     rec.set_defaults(func=cmd_record)
 
-    cal = sub.add_parser("calibrate-sensor", help="measure the fingertips' gains and rest noise against known loads "
+    cal = sub.add_parser("calibrate-sensor", help="measure the fingertips' gains, rest noise and skin lag against known loads "
                                                   "(the press scene's scale) and write a sensor profile a cell "
                                                   "file can name (sensor: {profile: PATH})")
     cal.add_argument("--out", required=True, help="sensor profile to write (.yaml)")
@@ -64,6 +64,10 @@ def cmd_calibrate_sensor(args) -> int:
                     scene_args={} if args.object is None else {"object": args.object})
     print(f"normal {cal.normal_px_per_n:.4f} px/N, shear {cal.shear_px_per_n:.4f} px/N, rest jitter "
           f"{cal.rest_jitter_px:.4f} px (persistence {cal.jitter_persistence:.2f})")
+    if cal.skin is not None:
+        creep = (f"creep {cal.skin.creep_share:.1%} over {cal.skin.creep_s:.2g} s" if cal.skin.creep_share is not None
+                 and cal.skin.creep_s is not None else "no creep told apart from noise")
+        print(f"skin lag {cal.skin.lag_s:.3f} s, hysteresis {cal.skin.hysteresis:.2f}, {creep}")
     print(f"wrote {path}")
     return 0
 

@@ -26,6 +26,7 @@ class HandoverPressScene(Scene):
     handover: HandoverScene
     friction: float = 0.8
     seed: int = 0
+    scale: dict[str, float] = field(default_factory=dict)  # the press scene's contact_stiffness, scale_noise
     press: PressScene | None = field(default=None, init=False)  # made once the robot holds the stick
 
     PROVIDES: ClassVar[frozenset[str] | None] = frozenset({"giver", "surface"})  # the handover's and the press's
@@ -39,7 +40,7 @@ class HandoverPressScene(Scene):
         self.handover.step(dt)
         if self.handover.phase == "robot":  # the person let go: the stick is the robot's, above the scale
             self.press = PressScene(self.arm, self.gripper, mass=self.handover.mass, width=self.handover.width,
-                                    seed=self.seed, grip=Grip(friction=self.friction))
+                                    seed=self.seed, grip=Grip(friction=self.friction), **self.scale)
             self.press.held = True
 
     def contacts(self):
@@ -64,10 +65,12 @@ class HandoverPressScene(Scene):
 
 
 def build(arm: SceneArm, gripper: SceneGripper, args: dict, world: dict, seed: int) -> HandoverPressScene:
-    """Scene args: mass (kg) of the stick (the press scene's, 0.05)."""
+    """Scene args: mass (kg) of the stick (the press scene's, 0.05). Randomised, the person is drawn as
+    the handover scene's and the scale (its stiffness under the stick, its noise) as the press scene's."""
     friction = world.get("friction", 0.8)
     given = {"mass": args.get("mass", 0.05)}  # the person's part drawn as the handover scene's when randomised
     handover = HandoverScene(arm, gripper, width=0.02, give_after=-1.0,
                              **randomise.params(HandoverScene, "handover", given, world, seed),
                              grip=Grip(friction=friction))
-    return HandoverPressScene(arm, gripper, handover, friction=friction, seed=seed)
+    scale = randomise.params(PressScene, "handover_press.scale", {}, world, seed)
+    return HandoverPressScene(arm, gripper, handover, friction=friction, seed=seed, scale=scale)

@@ -13,8 +13,9 @@ What is drawn, and why the range is what it is:
 - `force_sensor`: the UR TCP force reading's offset, drift and noise.
 - `world`: the gel's friction against the object, in every scene.
 - one group per scene (`assembly`, `assembly.element`, `assembly.plate`, `assembly.support`, `hold`,
-  `followme`, `handover`, `stick`, `press`, `stir`): the object's mass and size, the plates'
-  stiffness, loads and supports within design tolerance, the person's pull and timing.
+  `followme`, `handover`, `handover_press.scale`, `stick`, `press`, `stir`): the object's mass and
+  size, the plates' stiffness, loads and supports within design tolerance, the person's pull and
+  timing, the followme fingertips' closing-axis cue (camera depth, gel stiffness), the scale.
 
 Off (the default) nothing is drawn and a run is the same bit for bit as before.
 """
@@ -69,6 +70,11 @@ class Range:
         return span + (" (log)" if self.log else "")
 
 
+PRESS_RANGES = {
+    "mass": Range(0.7, 1.3, "", "the stick", relative=True),
+    "contact_stiffness": Range(0.5, 2.0, "", "scale platform, stick and pads in series", relative=True),
+    "scale_noise": Range(0.05, 0.2, "N", "the scale's reading noise"),
+}
 GROUPS: dict[str, dict[str, Range]] = {
     "sensor": {
         "gain": Range(0.7, 1.3, "", "marker motion per N (normal, shear, torque, size) of one sensor against the "
@@ -126,6 +132,13 @@ GROUPS: dict[str, dict[str, Range]] = {
         "hand_stiffness": Range(150.0, 500.0, "N/m", "a relaxed to a stiff human arm"),
         "max_force": Range(15.0, 35.0, "N", "what a person pulls or pushes with"),
         "vision_noise": Range(0.005, 0.02, "", "centroid noise, share of the image"),
+        "camera_depth": Range(0.015, 0.03, "m", "lens behind the skin's surface (the closing-axis cue scales as "
+                              "1 / depth): no published figure, the acrylic plate and gel of a fingertip that fits "
+                              "a parallel gripper"),
+        "pad_stiffness": Range(0.5, 2.0, "", "one pad's gel along its normal (E A / thickness; the closing-axis cue "
+                               "scales as 1 / k): no published figure; the gel's modulus is set by its mix (the "
+                               "paper softened a too hard Shore A 19 silicone with an additive) and its thickness by "
+                               "the mould, a factor 2 either way", relative=True, log=True),
     },
     "handover": {
         "mass": Range(0.7, 1.5, "", "the bottle, empty to full", relative=True),
@@ -137,17 +150,17 @@ GROUPS: dict[str, dict[str, Range]] = {
         "lift": Range(6.0, 12.0, "N", "how hard the person lifts to take it back"),
         "lift_ramp": Range(0.5, 2.0, "s", "how fast they lift"),
     },
+    "handover_press.scale": {  # the press scene's scale under the handed-over stick (its mass is the handover's)
+        "contact_stiffness": PRESS_RANGES["contact_stiffness"],
+        "scale_noise": PRESS_RANGES["scale_noise"],
+    },
     "stick": {
         "mass": Range(0.8, 1.2, "", "the stick", relative=True),
         "com": Range(0.9, 1.1, "", "where its centre of mass sits from the grasp", relative=True),
         "contact_radius": Range(0.75, 1.25, "", "the pads' friction torque radius", relative=True),
         "damping": Range(0.7, 1.3, "", "the gel's resistance to the stick turning in it", relative=True),
     },
-    "press": {
-        "mass": Range(0.7, 1.3, "", "the stick", relative=True),
-        "contact_stiffness": Range(0.5, 2.0, "", "scale platform, stick and pads in series", relative=True),
-        "scale_noise": Range(0.05, 0.2, "N", "the scale's reading noise"),
-    },
+    "press": PRESS_RANGES,
     "stir": {
         "surface_z": Range(-0.005, 0.005, "m", "fill level of the bowls (added to the nominal height)"),
         "turn_damping": Range(0.7, 1.3, "", "the stick turning in the gel", relative=True),
@@ -156,7 +169,7 @@ GROUPS: dict[str, dict[str, Range]] = {
 ADDED = {"stir": {"surface_z"}}  # drawn values added to the nominal, not put in its place
 SCENE_GROUPS = {"assembly": ("assembly", "assembly.element", "assembly.plate", "assembly.support"),
                 "inhand": ("stick",), "inhand_light": ("stick",), "armrot": ("stick",),
-                "handover_press": ("handover",)}  # else the scene's name
+                "handover_press": ("handover", "handover_press.scale")}  # else the scene's name
 SHARED_GROUPS = ("sensor", "force_sensor", "world")
 
 
