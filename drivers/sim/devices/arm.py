@@ -36,6 +36,8 @@ class KinematicArm:
         self._twist = [0.0] * 6  # commanded twist in effect (speed mode)
         self._target: np.ndarray | None = None  # commanded pose in effect (move mode)
         self._goal: list[float] = []  # the same pose as Python floats, read every sub-step
+        self._goal_rotation = np.eye(3)  # its rotation matrix
+        self._start_rotation: np.ndarray | None = None  # the pose's rotation matrix as this step began
         self._target_speed = 0.0
         self._stopping = False  # a stop in effect: decelerate at motion.stop_deceleration
         self._turned = False  # the move in effect has reached its orientation
@@ -97,6 +99,7 @@ class KinematicArm:
         if kind == "move":
             self._target, self._target_speed = args
             self._goal = self._target.tolist()
+            self._goal_rotation = rotvec_to_matrix(self._goal[3:6])
             self._turned = False
         elif kind == "twist":
             self._twist = args[0]  # a zero twist ramps down at the acceleration, as speedL does
@@ -120,6 +123,7 @@ class KinematicArm:
         t, end = self._t, self._t + dt
         turn = list(ZERO)  # rotation vector turned in this step (the axis barely changes within a tick)
         pose = self._pose.tolist()  # the sub-steps move its position, written back once at the end
+        self._start_rotation = None  # the pose turns at the end of the step: its matrix is made once a step
         while end - t > 1e-12:
             due = self._apply_due(t)
             h = min(end, due) - t
@@ -186,9 +190,10 @@ class KinematicArm:
         """Unit axis and angle (rad) from the present orientation (`pose`'s, after `turn`) to the target's."""
         if max(abs(target[3] - pose[3]), abs(target[4] - pose[4]), abs(target[5] - pose[5])) <= 1e-9:
             return list(ZERO), 0.0
-        rotation = pose[3:6]
-        cur = rotvec_to_matrix(turn) @ rotvec_to_matrix(rotation) if any(turn) else rotvec_to_matrix(rotation)
-        err = matrix_to_rotvec(rotvec_to_matrix(target[3:]) @ cur.T).tolist()
+        if self._start_rotation is None:
+            self._start_rotation = rotvec_to_matrix(pose[3:6])
+        cur = rotvec_to_matrix(turn) @ self._start_rotation if any(turn) else self._start_rotation
+        err = matrix_to_rotvec(self._goal_rotation @ cur.T).tolist()
         angle = math.hypot(*err)
         if angle < 1e-9:
             return list(ZERO), 0.0
