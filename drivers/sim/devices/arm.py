@@ -33,6 +33,7 @@ class KinematicArm:
         self.max_speed = max_speed
         self.max_angular_speed = max_angular_speed
         self.motion = motion
+        self._ideal = motion.ideal  # read every sub-step (the motion settings are frozen)
         self._twist = [0.0] * 6  # commanded twist in effect (speed mode)
         self._target: np.ndarray | None = None  # commanded pose in effect (move mode)
         self._goal: list[float] = []  # the same pose as Python floats, read every sub-step
@@ -147,14 +148,14 @@ class KinematicArm:
         motion = self.motion
         accel, ang_accel = (motion.stop_deceleration,) * 2 if self._stopping else (
             motion.acceleration, motion.angular_acceleration)
-        left, axis, angle = list(ZERO), list(ZERO), 0.0
+        axis, angle, dist = ZERO, 0.0, 0.0
         if self._target is not None:
             target = self._goal
             left = [target[0] - p[0], target[1] - p[1], target[2] - p[2]]
             dist = math.hypot(*left)
             speed = approach_speed(dist, self._target_speed, accel, h)
             v_goal = [x / dist * speed for x in left] if dist > 1e-12 else list(ZERO)
-            axis, angle = (list(ZERO), 0.0) if self._turned else self._rotation_left(p, target, turn)
+            axis, angle = (ZERO, 0.0) if self._turned else self._rotation_left(p, target, turn)
             rate = approach_speed(angle, self.max_angular_speed, ang_accel, h)
             w_goal = [a * rate for a in axis]
             steady = (speed == self._target_speed and _close(v_goal, self._v) and not angle and not any(self._w)
@@ -167,13 +168,13 @@ class KinematicArm:
             k = self.max_speed / n if n > self.max_speed else 1.0
             v_goal, w_goal = [vx * k, vy * k, vz * k], list(self._twist[3:])
             steady = _close(v_goal, self._v) and _close(w_goal, self._w)
-        if not (steady or motion.ideal):
+        if not (steady or self._ideal):
             h = min(h, CONTROL_PERIOD)
         v0 = self._v
         self._v = ramp(v0, v_goal, accel * h)
         self._w = ramp(self._w, w_goal, ang_accel * h)
         step = [(a + b) * 0.5 * h for a, b in zip(v0, self._v)] if accel > 0.0 else [b * h for b in self._v]
-        if self._target is not None and math.hypot(*left) <= max(math.hypot(*step), 1e-9):
+        if self._target is not None and dist <= max(math.hypot(*step), 1e-9):
             p[:3], self._v = self._goal[:3], list(ZERO)  # the position arrives within this sub-step
         else:
             p[:3] = [x + s for x, s in zip(p[:3], step)]
