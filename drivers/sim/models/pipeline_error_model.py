@@ -112,6 +112,7 @@ class ErrorModel:
         from drivers.sim.models.sensor_kernels import observe  # numba: loaded by a sensor, not by an import
 
         self._observe = observe  # kept: an import statement costs ~1 us a tick
+        self._unseen = ObjectInfo()  # the object not seen: one record, handed out unchanged (records are frozen)
 
     def apply(self, contact, exact: np.ndarray):
         """(positions, sizes, valid, force, torque, object, slip) the pipeline would report for this
@@ -177,7 +178,7 @@ class ErrorModel:
         expected = self._slip.popleft()
         slip = max(0.0, expected * (1.0 + e.slip_noise * slip_noise)) + floor
         if not obj.present or obj.area <= 0.0 or miss < e.object_miss:
-            return ObjectInfo(), slip
+            return self._unseen, slip
         seen = ObjectInfo(True, max(e.area_scale * obj.area + area_noise, 1e-4), obj.centroid + centroid_noise,
                           obj.orientation + angle_noise, obj.cells, obj.motion_cells)
         return seen, slip
