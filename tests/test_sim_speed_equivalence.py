@@ -1,8 +1,8 @@
 """The shortcuts that make the simulated cell and the recorder cheaper give the same values, bit for bit, as
 the general path: an unloaded fingertip's shared rest field, and the recorder's marker arrows built per batch.
 
-The per-tick models of the simulated cell (the fingertip skin, the TCP force sensor) run on Python floats,
-cached factors and blocks of random draws, because numpy's cost per call is many times the arithmetic on a
+The per-tick models of the simulated cell (the fingertip skin, the TCP force sensor, the arm's sub-steps)
+run on Python floats, cached factors and matrices and blocks of random draws, because numpy's cost per call is many times the arithmetic on a
 handful of numbers: each is driven here beside a plain numpy form of the same model (as its docstring
 states it) through the same seeded inputs, and must give the same floats."""
 
@@ -15,9 +15,11 @@ import pytest
 
 from drivers.clock import SimClock
 from drivers.sim.devices.arm import KinematicArm
+from drivers.sim.devices.arm_motion import ArmMotion
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
 from drivers.sim.models.force_sensor import NOISE_DRAWS, ForceSensedArm, ForceSensorConfig, _unit
 from drivers.sim.models.skin import REST, Skin
+from drivers.sim.transforms import rotvec_to_matrix
 from perception.sensor_profile import default_profile
 from perception.state import ObjectInfo
 
@@ -170,3 +172,40 @@ def test_the_force_sensor_reads_what_its_array_form_reads_bit_for_bit(config: Fo
             got, expected = sensed.tcp_wrench(), reference.tcp_wrench()
             assert got.dtype == expected.dtype and got.tolist() == expected.tolist()
         clock.advance()
+
+
+# ---- the arm ----------------------------------------------------------------------------------
+
+
+class UncachedArm(KinematicArm):
+    """The arm with the goal's and the pose's rotation matrices made again on every sub-step."""
+
+    def _rotation_left(self, pose, target, turn):
+        self._start_rotation, self._goal_rotation = None, rotvec_to_matrix(target[3:6])
+        return super()._rotation_left(pose, target, turn)
+
+
+def test_the_arm_turns_as_with_its_rotations_made_every_sub_step():
+    clock = SimClock(1.0 / 30.0)
+    home = np.array([0.1, -0.2, 0.5, np.pi, 0.0, 0.0])
+    arms = [KinematicArm(clock, home, motion=ArmMotion()), UncachedArm(clock, home, motion=ArmMotion())]
+    rng = np.random.default_rng(5)
+    for tick in range(900):
+        if tick % 150 == 0:  # a move that turns (near a half turn, where rounding matters most)
+            goal = arms[0].pose() + np.r_[rng.normal(0.0, 0.08, 3), rng.normal(0.0, 0.3, 3)]
+            goal[3:] *= min(1.0, np.pi / np.linalg.norm(goal[3:]))
+            commands = [("move_linear", goal, 0.15)]
+        elif tick % 150 == 100:
+            commands = [("speed_linear", np.r_[rng.normal(0.0, 0.05, 3), 0.0, 0.0, 0.2])]
+        elif tick % 150 == 130:
+            commands = [("stop",)]
+        else:
+            commands = []
+        for arm in arms:
+            for name, *args in commands:
+                getattr(arm, name)(*args)
+            arm.step(clock.period)
+        assert arms[0].pose().tobytes() == arms[1].pose().tobytes()
+        assert arms[0].tcp_speed().tobytes() == arms[1].tcp_speed().tobytes()
+        clock.advance()
+    assert arms[0].is_moving() == arms[1].is_moving()
