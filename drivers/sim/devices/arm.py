@@ -33,8 +33,12 @@ class KinematicArm:
         self.max_speed = max_speed
         self.max_angular_speed = max_angular_speed
         self.motion = motion
+        self._ideal = motion.ideal  # read every sub-step (the motion settings are frozen)
         self._twist = [0.0] * 6  # commanded twist in effect (speed mode)
         self._target: np.ndarray | None = None  # commanded pose in effect (move mode)
+        self._goal: list[float] = []  # the same pose as Python floats, read every sub-step
+        self._goal_rotation = np.eye(3)  # its rotation matrix
+        self._start_rotation: np.ndarray | None = None  # the pose's rotation matrix as this step began
         self._target_speed = 0.0
         self._stopping = False  # a stop in effect: decelerate at motion.stop_deceleration
         self._turned = False  # the move in effect has reached its orientation
@@ -95,6 +99,8 @@ class KinematicArm:
         self._target, self._twist, self._stopping = None, [0.0] * 6, False
         if kind == "move":
             self._target, self._target_speed = args
+            self._goal = self._target.tolist()
+            self._goal_rotation = rotvec_to_matrix(self._goal[3:6])
             self._turned = False
         elif kind == "twist":
             self._twist = args[0]  # a zero twist ramps down at the acceleration, as speedL does
@@ -117,36 +123,39 @@ class KinematicArm:
         """Move the TCP for `dt` seconds (on Python floats: numpy costs more than it saves on 3 numbers)."""
         t, end = self._t, self._t + dt
         turn = list(ZERO)  # rotation vector turned in this step (the axis barely changes within a tick)
+        pose = self._pose.tolist()  # the sub-steps move its position, written back once at the end
+        self._start_rotation = None  # the pose turns at the end of the step: its matrix is made once a step
         while end - t > 1e-12:
             due = self._apply_due(t)
             h = min(end, due) - t
-            h = self._advance(h, turn)
+            h = self._advance(h, pose, turn)
             t += h
+        self._pose[:3] = pose[:3]
         self._t = end
         self._apply_due(end)
         if self._target is not None and self._turned:
             self._pose[3:] = self._target[3:]  # exactly: rotation vectors near pi carry 1e-5 of rounding
         elif any(turn):
             self._pose[3:] = matrix_to_rotvec(rotvec_to_matrix(turn) @ rotvec_to_matrix(self._pose[3:]))
-        if self._target is not None and self._turned and not any(self._v) and self._pose.tolist()[:3] == self._target.tolist()[:3]:
+        if self._target is not None and self._turned and not any(self._v) and pose[:3] == self._goal[:3]:
             self._target = None
         self._velocity = self._v + self._w
 
-    def _advance(self, h: float, turn: list[float]) -> float:
-        """Move for at most `h` s under the command in effect, adding the rotation to `turn`; returns
-        the time taken (a controller cycle while the velocity changes, else all of `h`)."""
-        p = self._pose.tolist()
+    def _advance(self, h: float, p: list[float], turn: list[float]) -> float:
+        """Move the position of the pose `p` (x, y, z, rotation vector) for at most `h` s under the
+        command in effect, adding the rotation to `turn`; returns the time taken (a controller cycle
+        while the velocity changes, else all of `h`)."""
         motion = self.motion
         accel, ang_accel = (motion.stop_deceleration,) * 2 if self._stopping else (
             motion.acceleration, motion.angular_acceleration)
-        left, axis, angle = list(ZERO), list(ZERO), 0.0
+        axis, angle, dist = ZERO, 0.0, 0.0
         if self._target is not None:
-            target = self._target.tolist()
+            target = self._goal
             left = [target[0] - p[0], target[1] - p[1], target[2] - p[2]]
             dist = math.hypot(*left)
             speed = approach_speed(dist, self._target_speed, accel, h)
             v_goal = [x / dist * speed for x in left] if dist > 1e-12 else list(ZERO)
-            axis, angle = (list(ZERO), 0.0) if self._turned else self._rotation_left(target, turn)
+            axis, angle = (ZERO, 0.0) if self._turned else self._rotation_left(p, target, turn)
             rate = approach_speed(angle, self.max_angular_speed, ang_accel, h)
             w_goal = [a * rate for a in axis]
             steady = (speed == self._target_speed and _close(v_goal, self._v) and not angle and not any(self._w)
@@ -159,16 +168,16 @@ class KinematicArm:
             k = self.max_speed / n if n > self.max_speed else 1.0
             v_goal, w_goal = [vx * k, vy * k, vz * k], list(self._twist[3:])
             steady = _close(v_goal, self._v) and _close(w_goal, self._w)
-        if not (steady or motion.ideal):
+        if not (steady or self._ideal):
             h = min(h, CONTROL_PERIOD)
         v0 = self._v
         self._v = ramp(v0, v_goal, accel * h)
         self._w = ramp(self._w, w_goal, ang_accel * h)
         step = [(a + b) * 0.5 * h for a, b in zip(v0, self._v)] if accel > 0.0 else [b * h for b in self._v]
-        if self._target is not None and math.hypot(*left) <= max(math.hypot(*step), 1e-9):
-            self._pose[:3], self._v = self._target[:3], list(ZERO)  # the position arrives within this sub-step
+        if self._target is not None and dist <= max(math.hypot(*step), 1e-9):
+            p[:3], self._v = self._goal[:3], list(ZERO)  # the position arrives within this sub-step
         else:
-            self._pose[:3] = [x + s for x, s in zip(p[:3], step)]
+            p[:3] = [x + s for x, s in zip(p[:3], step)]
         rotated = [w * h for w in self._w]
         if self._target is not None and not self._turned and angle <= math.hypot(*rotated):
             rotated, self._w, self._turned = [a * angle for a in axis], list(ZERO), True  # so does the orientation
@@ -178,12 +187,14 @@ class KinematicArm:
             self._stopping = False
         return h
 
-    def _rotation_left(self, target: list[float], turn: list[float]) -> tuple[list[float], float]:
-        """Unit axis and angle (rad) from the present orientation (after `turn`) to the target's."""
-        if max(abs(target[3] - self._pose[3]), abs(target[4] - self._pose[4]), abs(target[5] - self._pose[5])) <= 1e-9:
+    def _rotation_left(self, pose: list[float], target: list[float], turn: list[float]) -> tuple[list[float], float]:
+        """Unit axis and angle (rad) from the present orientation (`pose`'s, after `turn`) to the target's."""
+        if max(abs(target[3] - pose[3]), abs(target[4] - pose[4]), abs(target[5] - pose[5])) <= 1e-9:
             return list(ZERO), 0.0
-        cur = rotvec_to_matrix(turn) @ rotvec_to_matrix(self._pose[3:]) if any(turn) else rotvec_to_matrix(self._pose[3:])
-        err = matrix_to_rotvec(rotvec_to_matrix(target[3:]) @ cur.T).tolist()
+        if self._start_rotation is None:
+            self._start_rotation = rotvec_to_matrix(pose[3:6])
+        cur = rotvec_to_matrix(turn) @ self._start_rotation if any(turn) else self._start_rotation
+        err = matrix_to_rotvec(self._goal_rotation @ cur.T).tolist()
         angle = math.hypot(*err)
         if angle < 1e-9:
             return list(ZERO), 0.0
@@ -191,7 +202,8 @@ class KinematicArm:
 
 
 def _close(a: list[float], b: list[float]) -> bool:
-    return max(abs(x - y) for x, y in zip(a, b)) < 1e-12
+    """Whether two 3-vectors agree within 1e-12 in every component."""
+    return abs(a[0] - b[0]) < 1e-12 and abs(a[1] - b[1]) < 1e-12 and abs(a[2] - b[2]) < 1e-12
 
 
 def _stopping(speed: float, accel: float) -> float:

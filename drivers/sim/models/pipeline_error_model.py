@@ -109,6 +109,10 @@ class ErrorModel:
         self._slip: deque[float] = deque([0.0] * errors.slip_delay, maxlen=errors.slip_delay + 1)
         self._tick = BLOCK
         self._last_noise: np.ndarray | None = None  # the last tick's marker noise (persistent noise only)
+        from drivers.sim.models.sensor_kernels import observe  # numba: loaded by a sensor, not by an import
+
+        self._observe = observe  # kept: an import statement costs ~1 us a tick
+        self._unseen = ObjectInfo()  # the object not seen: one record, handed out unchanged (records are frozen)
 
     def apply(self, contact, exact: np.ndarray):
         """(positions, sizes, valid, force, torque, object, slip) the pipeline would report for this
@@ -122,9 +126,7 @@ class ErrorModel:
         self._tick += 1
         first, same = self._truth is None, exact is self._truth
         valid = self._tracked[t]
-        from drivers.sim.models.sensor_kernels import observe  # numba: loaded by a sensor, not by an import
-
-        position, size, moved, force, torque = observe(
+        position, size, moved, force, torque = self._observe(
             exact, self._truth if not (first or same) else exact, self._estimate, valid, self._noise[t],
             self.e.lag_alpha, self._origin, self._terms)
         obj, slip = self._view(contact, None if first else moved, self._scalars[t], self._centroid[t])
@@ -176,7 +178,7 @@ class ErrorModel:
         expected = self._slip.popleft()
         slip = max(0.0, expected * (1.0 + e.slip_noise * slip_noise)) + floor
         if not obj.present or obj.area <= 0.0 or miss < e.object_miss:
-            return ObjectInfo(), slip
+            return self._unseen, slip
         seen = ObjectInfo(True, max(e.area_scale * obj.area + area_noise, 1e-4), obj.centroid + centroid_noise,
                           obj.orientation + angle_noise, obj.cells, obj.motion_cells)
         return seen, slip

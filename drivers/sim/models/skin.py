@@ -16,52 +16,73 @@ a zero lag and no creep the skin is transparent (the contact is handed on unchan
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
 from drivers.sim.models.fingervision_model import FingerContact
 from perception.sensor_profile import SensorProfile
 
 REST = 1e-9  # a felt load below this is none (so an unloaded skin hands on the shared rest contact)
+CHANNELS = 4  # normal, shear x, shear y, torque
 
 
 class Skin:
-    """One fingertip's skin: `feel(contact, now)` is the contact with the loads the markers show."""
+    """One fingertip's skin: `feel(contact, now)` is the contact with the loads the markers show.
+
+    It runs once per finger per tick on four numbers, so it works on Python floats (numpy's cost per
+    call is many times the arithmetic on four numbers), with the same operations in the same order as
+    the array form in the module docstring, so the results are the same bit for bit."""
 
     def __init__(self, profile: SensorProfile):
         self.lag, self.creep_time = profile.skin_lag_s, profile.skin_creep_s
         self.creep_share = profile.skin_creep_share if profile.skin_creep_s > 0.0 else 0.0
         self.hysteresis = profile.skin_hysteresis
         self.transparent = self.lag <= 0.0 and self.creep_share <= 0.0
-        self._fast = np.zeros(4)
-        self._slow = np.zeros(4)
+        self._fast = [0.0] * CHANNELS
+        self._slow = [0.0] * CHANNELS
         self._last: float | None = None
+        self._steps: dict[float, tuple[float, float, float, float]] = {}  # dt -> `_step_shares(dt)`
 
     def feel(self, contact: FingerContact, now: float) -> FingerContact:
         """The contact as the skin shows it at `now` (s on the cell clock)."""
         if self.transparent:
             return contact
-        load = np.array([contact.normal, contact.shear[0], contact.shear[1], contact.torque], float)
+        shear_x, shear_y = contact.shear.tolist()
+        load = [float(contact.normal), shear_x, shear_y, float(contact.torque)]
         dt = 0.0 if self._last is None else max(now - self._last, 0.0)
         if self._last is None:
-            self._fast[:] = self._slow[:] = 0.0 if self.lag > 0.0 else load
+            self._fast = [0.0] * CHANNELS if self.lag > 0.0 else list(load)
+            self._slow = list(self._fast)
         self._last = now
-        _relax(self._fast, load, dt, self.lag, self.hysteresis)
-        _relax(self._slow, load, dt, self.creep_time, self.hysteresis)
-        felt = (1.0 - self.creep_share) * self._fast + self.creep_share * self._slow
-        felt[np.abs(felt) < REST] = 0.0
-        if np.array_equal(felt, load):
+        fast_load, fast_unload, slow_load, slow_unload = self._step_shares(dt)
+        self._fast = _relax(self._fast, load, self.lag, fast_load, fast_unload)
+        self._slow = _relax(self._slow, load, self.creep_time, slow_load, slow_unload)
+        keep, creep = 1.0 - self.creep_share, self.creep_share
+        felt = [keep * f + creep * s for f, s in zip(self._fast, self._slow)]
+        felt = [0.0 if abs(x) < REST else x for x in felt]
+        if felt == load:
             return contact
-        return replace(contact, normal=float(felt[0]), shear=felt[1:3].copy(), torque=float(felt[3]))
+        return FingerContact(felt[0], np.array(felt[1:3]), felt[3], contact.centre, contact.obj, contact.slip)
+
+    def _step_shares(self, dt: float) -> tuple[float, float, float, float]:
+        """The share of the way to the load each branch goes in `dt` (1 - exp(-dt / tau)): fast loading,
+        fast unloading, slow loading, slow unloading. Worked out once per `dt` (a cell clock's ticks
+        give a handful of values, its period with different rounding), with numpy's exp as an array,
+        as the array form does."""
+        shares = self._steps.get(dt)
+        if shares is None:
+            taus = np.array([self.lag, self.lag * (1.0 + self.hysteresis),
+                             self.creep_time, self.creep_time * (1.0 + self.hysteresis)])
+            with np.errstate(divide="ignore", invalid="ignore"):  # a zero time constant: see _relax
+                shares = tuple((1.0 - np.exp(-dt / taus)).tolist())
+            if len(self._steps) > 64:  # a clock whose steps keep changing (none here): do not grow
+                self._steps.clear()
+            self._steps[dt] = shares
+        return shares
 
 
-def _relax(state: np.ndarray, load: np.ndarray, dt: float, tau: float, hysteresis: float) -> None:
-    """Move `state` towards `load` over `dt` with time constant `tau` (slower by 1 + `hysteresis` on
-    the channels unloading), in place; a zero time constant follows at once."""
+def _relax(state: list[float], load: list[float], tau: float, loading: float, unloading: float) -> list[float]:
+    """`state` moved towards `load` by the share `loading` of the way, or `unloading` on the channels
+    whose load falls below the state (slower by 1 + hysteresis); a zero time constant follows at once."""
     if tau <= 0.0:
-        state[:] = load
-        return
-    unloading = np.abs(load) < np.abs(state)
-    taus = np.where(unloading, tau * (1.0 + hysteresis), tau)
-    state += (load - state) * (1.0 - np.exp(-dt / taus))
+        return list(load)
+    return [s + (x - s) * (unloading if abs(x) < abs(s) else loading) for s, x in zip(state, load)]
