@@ -54,6 +54,12 @@ def test_timed_calls_times_a_method_and_puts_it_back():
         pass
 
 
+def test_every_timed_method_of_the_cost_table_is_there():
+    """A renamed method stops the bench with an error; this finds it in the fast tier first."""
+    with tick_costs.timed_calls(tuple(t for cost in tick_costs.COSTS for t in cost.calls)) as sinks:
+        assert sinks == {}  # wrapped, none called yet
+
+
 @pytest.mark.slow  # a dozen short runs of the assembly in both modes
 def test_the_speed_and_cost_parts_write_their_tables_and_chart(tmp_path):
     assert main(["bench", "ticks", "--quick", "--parts", "options", "costs", "--out", str(tmp_path)]) == 0

@@ -54,7 +54,7 @@ COSTS: tuple[Cost, ...] = (
          "groot2"),
     Cost("arm model (latency, acceleration)", "signals", ("drivers.sim.devices.arm:KinematicArm.step",), "arm ideal"),
     Cost("skin model (lag, creep, hysteresis)", "signals", ("drivers.sim.models.skin:Skin.feel",), "skin off"),
-    Cost("TCP force-sensor model", "signals", ("drivers.sim.models.force_sensor:ForceSensedArm._error",),
+    Cost("TCP force-sensor model", "signals", ("drivers.sim.models.force_sensor:SensorErrors.at",),
          "force sensor ideal"),
     Cost("SafeArm look-ahead (box one period ahead)", "signals", ("drivers.safety:SafeArm._crossing",)),
     Cost("supervisor Margins", "signals", ("assembly.run.supervisor:Margins.tick",
