@@ -1,7 +1,7 @@
 """GentleGrasp: close the gripper in small steps until the marker field changes on enough
 markers (the object is touched), then squeeze a set margin so the grip carries the task loads.
 A marker counts as changed beyond `threshold`, or beyond `noise_factor` times the rest noise the
-first frames show when the skin is noisier than that (`ForceChangeDetector`)."""
+first frames show when the skin (or that marker) is noisier than that (`ForceChangeDetector`)."""
 
 from __future__ import annotations
 
@@ -12,6 +12,11 @@ from behaviours.skill_kit.base import Param, ProgramSkill, time_limit
 from behaviours.skill_kit.control import ForceChangeDetector
 from behaviours.skill_kit.registry import register
 from perception.wrench import marker_forces
+
+# Frames the marker field is taken at rest as the fingers start closing (a third of a second at 30 Hz,
+# 5 mm of closing at the default step): enough to see each marker's own noise, which a filtered
+# pixel pipeline's wander and a few noisy markers make larger than three frames show.
+REFERENCE_FRAMES = 10
 
 
 @register
@@ -34,7 +39,7 @@ class GentleGrasp(ProgramSkill):
 
     def program(self):
         gripper = self.cell.gripper
-        detector = ForceChangeDetector(self.p.threshold, self.p.min_markers, noise_factor=self.p.noise_factor)
+        detector = ForceChangeDetector(self.p.threshold, self.p.min_markers, REFERENCE_FRAMES, self.p.noise_factor)
         speed, start = self.p.step / self.cell.clock.period, self.now()
         while True:
             left, right = self.tactile()

@@ -36,7 +36,7 @@ class ForceChangeDetector:
     adopts after the reference (it appends markers missed at calibration, e.g. under glare) have no
     reference and are not counted. The limit is `threshold`, raised to `noise_factor` times the rest
     noise measured on the reference frames (per axis, of a frame against their mean, pooled over the
-    markers): a noisier skin than the one the threshold was set on (the calibration logs' rest jitter
+    markers, and each marker's own where that is larger): a noisier skin than the one the threshold was set on (the calibration logs' rest jitter
     spans 0.046-0.32 px) would otherwise light enough markers to fire without any touch; at 4 times
     the noise a marker's noise crosses the limit on one frame in ~3000."""
 
@@ -47,6 +47,7 @@ class ForceChangeDetector:
         self.noise_factor = noise_factor
         self._ref: list[tuple[np.ndarray, ...]] = []
         self._mean: list[np.ndarray] | None = None  # per finger, the reference field once its frames are in
+        self._limits: list[np.ndarray] = []  # per finger, each marker's own limit (px)
         self.limit = threshold  # px a marker must move to count, once the reference is in
         self.changed = 0
 
@@ -60,11 +61,22 @@ class ForceChangeDetector:
             frames = [np.array([frame[i][:n] for frame in self._ref], dtype=float) for i, n in enumerate(counts)]
             self._mean = [f.mean(axis=0) for f in frames]
             self.limit = max(self.threshold, self.noise_factor * rest_noise(frames))
+            self._limits = [np.maximum(self.limit, self.noise_factor * marker_noise(f)) for f in frames]
         self.changed = 0
-        for f, mean in zip(marker_forces, self._mean):
+        for f, mean, limits in zip(marker_forces, self._mean, self._limits):
             n = min(len(f), len(mean))
-            self.changed += int(np.count_nonzero(np.linalg.norm(f[:n] - mean[:n], axis=1) > self.limit))
+            self.changed += int(np.count_nonzero(np.linalg.norm(f[:n] - mean[:n], axis=1) > limits[:n]))
         return self.changed > self.min_markers
+
+
+def marker_noise(frames: np.ndarray) -> np.ndarray:
+    """Each marker's own rest noise (per-axis standard deviation over `frames`, frames x markers x
+    axes; 0 with fewer than two frames): a few markers of a real image (at the edge, under glare)
+    are noisier than the pooled figure says, and would light up on their own."""
+    if len(frames) < 2:
+        return np.zeros(frames.shape[1])
+    spread = np.nanmean(np.nanvar(frames, axis=0, ddof=1), axis=-1)
+    return np.sqrt(np.nan_to_num(spread))
 
 
 def rest_noise(fingers: list[np.ndarray]) -> float:
