@@ -38,7 +38,6 @@ from behaviours.skill_kit.registry import register
 from behaviours.skill_kit.settle import Settling
 from perception.wrench import marker_forces
 
-
 NOISE_FACTOR = 4.0  # a pull counts beyond this many times its noise (a 3-axis noise passes it ~1 tick in 1000)
 
 
