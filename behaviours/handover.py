@@ -159,8 +159,10 @@ class Handover(ProgramSkill):
             recent.append(float(np.linalg.norm(pull)))
             least = self._least_pull(settling)
             # A settling skin shows weight (down), never a lift, and it drifts slowly: a lift, or a
-            # pull growing faster than `tug_rate`, is a tug even now.
-            if pull[2] > least or (recent[-1] > least and self._rate(recent) > self.p.tug_rate):
+            # pull growing faster than `tug_rate`, is a tug even now, once 6 ticks have measured
+            # the pull's noise (a jittery skin's pull jumps by more than `min_pull` from tick to tick).
+            if settling.noise is not None and (pull[2] > least or (recent[-1] > least
+                                                                   and self._rate(recent) > self.p.tug_rate)):
                 return None
             if self.now() - start > self.p.wait:
                 return f"no one took the object within {self.p.wait:.0f} s; still holding it (the skin never settled)"
@@ -187,9 +189,8 @@ class Handover(ProgramSkill):
             yield
 
     def _least_pull(self, settling: Settling) -> float:
-        """`min_pull`, or 4 times the pull's noise the settling window measured when that is more."""
-        noise = settling.last.noise if settling.last is not None else 0.0
-        return max(self.p.min_pull, NOISE_FACTOR * noise)
+        """`min_pull`, or 4 times the pull's noise measured while settling when that is more."""
+        return max(self.p.min_pull, NOISE_FACTOR * (settling.noise or 0.0))
 
     def _kind_of(self, pull: np.ndarray, recent: deque, least: float) -> str | None:
         """'tug', 'weight', or None (no pull yet: under `least`) for the change `pull` of the hand

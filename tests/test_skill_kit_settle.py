@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from behaviours.skill_kit.settle import Settling, relaxation
+from behaviours.skill_kit.settle import Settling, reading_noise, relaxation
 
 PERIOD = 1.0 / 30.0
 
@@ -62,3 +62,18 @@ def test_refuses_too_short_a_window():
         relaxation(np.zeros((5, 3)), PERIOD)
     with pytest.raises(ValueError, match="at least 6"):
         Settling(5, 0.1, PERIOD)
+
+
+def test_reading_noise_ignores_a_slow_drift_and_one_sudden_step():
+    rng = np.random.default_rng(5)
+    drift = answer(0.9, np.array([0.5, -0.5, 0.2]), 30, noise=0.04, seed=5)
+    assert reading_noise(drift) == pytest.approx(0.04, rel=0.35)
+    stepped = rng.normal(0.0, 0.04, (12, 3))
+    stepped[8:] += 3.0  # a tug between two ticks
+    assert reading_noise(stepped) == pytest.approx(0.04, rel=0.5)
+    settling = Settling(30, 0.05, PERIOD)
+    for x in stepped[:5]:
+        settling.update(x)
+    assert settling.noise is None
+    settling.update(stepped[5])
+    assert settling.noise == pytest.approx(0.04, rel=0.6)

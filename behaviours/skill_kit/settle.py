@@ -20,6 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+MAD_TO_SIGMA = 1.4826  # a normal noise's standard deviation per median absolute deviation
+
 
 @dataclass(frozen=True)
 class Relaxation:
@@ -35,6 +37,19 @@ class Relaxation:
         return float(np.linalg.norm(self.remaining))
 
 
+def reading_noise(readings) -> float:
+    """Per-axis standard deviation of one reading's white noise, from the tick-to-tick steps of
+    `readings` (at least 3): their median absolute deviation (so neither the answer's slow drift nor
+    one sudden step, a person's tug, is taken for noise), pooled over the axes; a step of white noise
+    has sqrt(2) times its spread."""
+    x = np.asarray(readings, dtype=float)
+    steps = np.diff(x.reshape(len(x), -1), axis=0)
+    if len(steps) < 2:
+        raise ValueError(f"need at least 3 readings to measure their noise, got {len(x)}")
+    mad = np.median(np.abs(steps - np.median(steps, axis=0)), axis=0) * MAD_TO_SIGMA
+    return float(np.sqrt(np.mean(mad ** 2) / 2.0))
+
+
 def relaxation(readings, period: float) -> Relaxation:
     """The relaxation still to come after `readings` (one vector per tick, oldest first, at least 6,
     `period` s apart): Aitken's extrapolation over the means of the window's last three equal
@@ -47,10 +62,7 @@ def relaxation(readings, period: float) -> Relaxation:
         raise ValueError(f"need at least 6 readings to measure a relaxation, got {len(x)}")
     parts = x[len(x) - 3 * n:].reshape(3, n, -1)
     a, b, c = parts.mean(axis=1)
-    # One reading's noise from the tick-to-tick steps (about their mean, so the answer's slow drift is
-    # not taken for noise): a step of white noise has sqrt(2) times its spread.
-    steps = np.diff(x[len(x) - 3 * n:], axis=0)
-    noise = float(np.sqrt(np.mean((steps - steps.mean(axis=0)) ** 2) * len(steps) / (len(steps) - 1) / 2.0))
+    noise = reading_noise(x[len(x) - 3 * n:])
     d1, d2 = b - a, c - b
     step_noise = 3.0 * noise * math.sqrt(2.0 / n)  # a change of a stretch's mean beyond this is real
     if np.linalg.norm(c - a) <= step_noise:  # no change across the window: a skin whose lag it spans has settled
@@ -82,6 +94,11 @@ class Settling:
         self.tolerance, self.period = tolerance, period
         self._seen: deque[np.ndarray] = deque(maxlen=window)
         self.last: Relaxation | None = None
+
+    @property
+    def noise(self) -> float | None:
+        """One reading's noise (`reading_noise`) from the readings so far; None before 6."""
+        return reading_noise(self._seen) if len(self._seen) >= 6 else None
 
     def update(self, reading) -> bool:
         """Add this tick's reading; True once the window is full and what is still to come is within
