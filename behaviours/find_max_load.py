@@ -22,7 +22,12 @@ from the cell's sensor profile unless given), and the grip counts as slipping on
 median of that (both fingers) over the last `slip_ticks` ticks exceeds `slip`: a sliding element
 moves its texture on every tick, a load change only on a few. A grip
 that gives way slowly stays under the slip noise; it shows in the profile instead, as a load
-cut off at what the grip carries: a peak sharper than a plate's (`min_top_width`)."""
+cut off at what the grip carries: a peak sharper than a plate's (`min_top_width`), or a reading
+that falls below the unloaded reference once the element has shifted (`max_below`, a share of the
+peak: a lagging skin shows a load late, and its creep and hysteresis leave it above the truth after
+unloading, never below, so only the grip can take the reading under it). A slow skin makes this the
+usual way to fail: its gentle grasp feels contact late and closes to the force limit, and that
+firmer grip slips too slowly for the slip rule under the heaviest plates."""
 
 from __future__ import annotations
 
