@@ -353,13 +353,13 @@ def test_find_max_load_takes_a_profile_falling_below_its_start_for_a_shifting_gr
     assert h.blackboard("/task/best_pose") is None
 
 
-def test_find_max_load_refuses_a_profile_a_quarter_of_its_peak_below_the_reference():
+def test_find_max_load_refuses_a_profile_a_tenth_of_its_peak_below_the_reference():
     """A grip that gave way slowly caps the load (a wide top the sharpness rule passes) and leaves the
-    element shifted: the reading falls below the unloaded reference by a third of the peak (seen on a
-    0.9 s skin, whose firmer grasp slips too slowly for the slip rule). A lagging skin shows loads late,
-    never below the truth, so rule 'max_below' (0.25 of the peak) refuses it; a tenth is accepted."""
+    element shifted: the reading falls below the unloaded reference (by 14-48 % of the peak with
+    0.3-0.9 s skins, whose firmer grasp slips too slowly for the slip rule). A lagging skin shows loads
+    late, never below the truth, so rule 'max_below' (0.1 of the peak) refuses 15 %; 3 % is taken."""
     refused = one_skill("find_max_load", "{speed: 0.05, max_regrasps: 0}")
-    for h, drift in ((refused, 3.5), (one_skill("find_max_load", "{speed: 0.05, max_regrasps: 0}"), 1.0)):
+    for h, drift in ((refused, 1.6), (one_skill("find_max_load", "{speed: 0.05, max_regrasps: 0}"), 0.3)):
         h.set("/task/element", E1)
         h.set("/task/plates", PLATES)
         h.script(scaled_plate(h, np.random.default_rng(5), peak=10.0, noise=0.3, drift=drift))
