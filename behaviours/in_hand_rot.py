@@ -5,9 +5,9 @@ variant torque: L = 1 (open) while the object still twists the fingers (|torque|
   ends when the torque vanishes - light objects give too little torque and stop short.
 variant slip: L = 1 while the object does not slip, 0 while it slips and for `slip_hold` ticks
   after the last slip felt, so the leak closes the grip again and the object turns in small
-  slips. When the object stands still at the whole opening for `stall` s (a grip firmer than
-  usual: a slow skin's gentle grasp closes to the force limit), the opening grows towards
-  `max_opening` (`Widening`). The hold matters with a real sensor: the pipeline's slip flickers while the object
+  slips. When the opening has stopped growing and the object turns too slowly to reach the target
+  in time (a grip firmer than usual: a slow skin's gentle grasp closes to the force limit), the
+  opening grows towards `max_opening` (`Widening`). The hold matters with a real sensor: the pipeline's slip flickers while the object
   turns (frames in which it reads under the threshold), and opening on each such frame lets a
   light object drop.
 """
@@ -23,6 +23,8 @@ from behaviours.skill_kit.base import Param, ProgramSkill, time_limit
 from behaviours.skill_kit.control import LeakyIntegrator
 from behaviours.skill_kit.hand import SteadyAngle, false_object, hand_torque, object_angle, total_slip
 from behaviours.skill_kit.registry import register
+
+GROWING = 0.05  # an opening that grew by this share of its span over a stall window is still growing
 
 
 @register
@@ -41,10 +43,10 @@ class InHandRot(ProgramSkill):
         "slip_hold": Param("int", "slip variant: ticks after the last slip felt before the opening may grow again",
                            3, min=1),
         "max_opening": Param("float", "slip variant: the opening grows past `opening` up to this when the object "
-                             "stops turning at it (a grip firmer than usual needs a wider opening)", 0.012, "m",
+                             "turns too slowly at it (a grip firmer than usual needs a wider opening)", 0.012, "m",
                              min=0.0005, max=0.05),
-        "stall": Param("float", "slip variant: time the object may stand still (under 1 deg of turn, no slip) "
-                       "at the whole opening before the opening grows by half of `opening`", 1.0, "s", min=0.1),
+        "stall": Param("float", "slip variant: window over which a turn too slow to reach the target in time, at an "
+                       "opening no longer growing, grows the opening by half of `opening`", 1.0, "s", min=0.1),
         "settle": Param("int", "torque variant: ticks of zero torque that end the rotation", 10, min=1),
         "max_time": time_limit(20.0),
         "force": Param("float", "gripper force when closing again", 40.0, "N", min=0.0, device="gripper_force"),
@@ -97,7 +99,8 @@ class InHandRot(ProgramSkill):
                 drive_input = 0.0 if since_slip < self.p.slip_hold else 1.0
             opened = drive.step(-drive_input)  # 0 closed .. 1 fully opened, with inertia
             if self.p.variant == "slip":
-                drive.x = opened = widen.update(self.now(), turned, opened, since_slip >= self.p.slip_hold)
+                left_s = max(self.p.max_time - (self.now() - start), self.cell.clock.period)
+                drive.x = opened = widen.update(self.now(), turned, opened, (self.p.target - turned) / left_s)
             gripper.move(width0 + opened * widen.span, speed=gripper.max_speed)
             if self.now() - start > self.p.max_time:
                 yield from self.grip(width0, gripper.max_speed, self.p.force)
@@ -119,26 +122,33 @@ class InHandRot(ProgramSkill):
 
 
 class Widening:
-    """The slip variant's opening span (m), grown while the object stands still at it: a grip firmer
-    than the one `opening` was set for (a slow skin feels the contact late, so the gentle grasp closes
-    to the gripper's force limit; 40 N instead of 30 N seen with a 0.75 s skin) still holds the object
-    at the whole opening. When the opening has been whole (over 95 %) without slip and the turn has
-    gained under 1 deg for `stall` s, the span grows by half of `opening`, up to `max_opening`, the
-    opening's share scaled down so the fingers do not jump. Only while the object stands still in
-    the grip: once it slips, the leak closes the grip again as before."""
+    """The slip variant's opening span (m), grown while the object turns too slowly at it: a grip
+    firmer than the one `opening` was set for (a slow skin feels the contact late, so the gentle grasp
+    closes to the gripper's force limit; 40 N instead of 30 N seen with a 0.75 s skin) still holds the
+    object, or lets it creep, at the whole opening. Judged over windows of `stall` s: when the opening
+    has stopped growing (at its span, or where the leak balances the slips felt) and the object turned
+    less than the rate that would reach the target in the time left, the span grows by half of
+    `opening`, up to `max_opening`, the opening's share scaled down so the fingers do not jump. An
+    object that turns fast enough, or an opening still growing, leaves the span as it is."""
 
     def __init__(self, opening: float, max_opening: float, stall: float):
         self.span, self.step, self.max_span, self.stall = opening, 0.5 * opening, max_opening, stall
-        self._mark: tuple[float, float] | None = None  # (time, turned) since which the object stood still
+        self._mark: tuple[float, float, float] | None = None  # (time, turned, opened) the window began at
 
-    def update(self, now: float, turned: float, opened: float, still: bool) -> float:
-        """This tick's share of the (maybe grown) span to open, from the integrator's `opened`."""
-        if not still or opened < 0.95 or self._mark is None or turned - self._mark[1] >= 1.0:
-            self._mark = (now, turned) if still and opened >= 0.95 else None
+    def update(self, now: float, turned: float, opened: float, needed_rate: float) -> float:
+        """This tick's share of the (maybe grown) span to open, from the integrator's `opened`;
+        `needed_rate` (deg/s) is the turn rate that would reach the target in the time left."""
+        if self._mark is None:
+            self._mark = (now, turned, opened)
+        since, turned0, opened0 = self._mark
+        if now - since < self.stall:
             return opened
-        if now - self._mark[0] < self.stall or self.span >= self.max_span:
+        self._mark = (now, turned, opened)
+        too_slow = turned - turned0 < needed_rate * (now - since)
+        if opened - opened0 >= GROWING or not too_slow or self.span >= self.max_span:
             return opened
         grown = min(self.span + self.step, self.max_span)
         opened *= self.span / grown
-        self.span, self._mark = grown, (now, turned)
+        self.span = grown
+        self._mark = (now, turned, opened)
         return opened

@@ -164,9 +164,9 @@ def firm_bar(h, needs: float):
 
 
 def test_slip_variant_opens_further_when_a_firm_grip_holds_the_bar_still():
-    """8 mm of opening needed where `opening` gives 6: the bar stands still at the whole opening, so
-    after `stall` s the opening grows by 3 mm (without a jump of the fingers) and the bar turns; with
-    `max_opening` no larger than `opening` it never does."""
+    """8 mm of opening needed where `opening` gives 6: the bar stands still once the opening has
+    stopped growing, so the opening grows by 3 mm (without a jump of the fingers) and the bar turns;
+    with `max_opening` no larger than `opening` it never does."""
     h = one_skill("{variant: slip, target: 30, alpha: 0.9, stall: 0.5}")
     h.script(firm_bar(h, 0.008))
     assert h.run_until_done(600).name == "SUCCESS", h.feedback("s")
@@ -178,19 +178,16 @@ def test_slip_variant_opens_further_when_a_firm_grip_holds_the_bar_still():
     assert "turned only 0 of 30 deg" in stuck.feedback("s") and widths(stuck).max() <= W0 + 0.006 + 1e-9
 
 
-def test_widening_grows_only_while_the_object_stands_still_at_the_whole_opening():
+def test_widening_grows_only_while_the_turn_is_too_slow_at_an_opening_no_longer_growing():
     from behaviours.in_hand_rot import Widening
 
     w = Widening(0.006, 0.012, 1.0)
-    assert w.update(0.0, 0.0, 0.5, True) == 0.5 and w.span == 0.006  # not yet wide open
-    assert w.update(0.1, 0.0, 1.0, True) == 1.0  # wide open: the stall clock starts
-    assert w.update(1.0, 0.5, 1.0, True) == 1.0 and w.span == 0.006  # 0.9 s: not yet
-    share = w.update(1.2, 0.5, 1.0, True)  # 1.1 s still (0.5 deg): grows by 3 mm, the fingers stay put
-    assert w.span == pytest.approx(0.009) and share * w.span == pytest.approx(0.006)
-    assert w.update(1.3, 0.5, 1.0, False) == 1.0  # slipping: the clock stops
-    w.update(1.4, 5.0, 1.0, True)
-    w.update(2.0, 6.5, 1.0, True)  # turning (1.5 deg): no stall
-    assert w.update(2.3, 6.6, 1.0, True) == 1.0 and w.span == pytest.approx(0.009)
-    for t in (3.4, 4.5, 5.6, 6.7):
-        w.update(t, 6.6, 1.0, True)
+    assert w.update(0.0, 0.0, 0.5, 3.0) == 0.5  # the window starts
+    assert w.update(1.0, 0.0, 0.9, 3.0) == 0.9 and w.span == 0.006  # the opening still grew (0.4): wait
+    assert w.update(1.5, 0.5, 0.92, 3.0) == 0.92 and w.span == 0.006  # mid-window
+    share = w.update(2.0, 0.5, 0.92, 3.0)  # grew 0.02, turned 0.5 deg of the 3 needed: 3 mm more
+    assert w.span == pytest.approx(0.009) and share * w.span == pytest.approx(0.92 * 0.006)  # no jump
+    assert w.update(3.0, 4.0, share, 3.0) == share and w.span == pytest.approx(0.009)  # 3.5 deg/s: fast enough
+    for t in (4.0, 5.0, 6.0, 7.0):
+        share = w.update(t, 4.0, share, 3.0)
     assert w.span == pytest.approx(0.012)  # never past max_opening
