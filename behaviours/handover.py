@@ -150,7 +150,8 @@ class Handover(ProgramSkill):
         shift = MarkerShift()  # the pull read marker by marker: a firm grip's lost markers do not move it
         shift.add_reference(*self.tactile())
         settling = Settling(max(6, round(self.p.settle_window / period)), 0.5 * self.p.min_pull, period)
-        settled, recent = False, deque(maxlen=self.RATE_TICKS + 1)
+        settled = False
+        recent: deque[float] = deque(maxlen=self.RATE_TICKS + 1)
         while not settled:
             if not still_seen(object_area(*self.tactile()), held_area, self.p.gone_share):
                 return "the object slipped out while waiting for the person: grasp it firmer, or hold it with 'hold'"
