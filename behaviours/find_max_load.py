@@ -22,7 +22,12 @@ from the cell's sensor profile unless given), and the grip counts as slipping on
 median of that (both fingers) over the last `slip_ticks` ticks exceeds `slip`: a sliding element
 moves its texture on every tick, a load change only on a few. A grip
 that gives way slowly stays under the slip noise; it shows in the profile instead, as a load
-cut off at what the grip carries: a peak sharper than a plate's (`min_top_width`)."""
+cut off at what the grip carries: a peak sharper than a plate's (`min_top_width`), or a reading
+that falls below the unloaded reference once the element has shifted (`max_below`, a share of the
+peak: a lagging skin shows a load late, and its creep and hysteresis leave it above the truth after
+unloading, never below, so only the grip can take the reading under it). A slow skin makes this the
+usual way to fail: its gentle grasp feels contact late and closes to the force limit, and that
+firmer grip slips too slowly for the slip rule under the heaviest plates."""
 
 from __future__ import annotations
 
@@ -89,6 +94,11 @@ class FindMaxLoad(ProgramSkill):
         "both_ways": Param("bool", "scan the span forth and back and take the mean of the two peaks: a "
                            "lagging skin shifts each pass's peak along its way by about speed x lag, and the "
                            "mean cancels it (false: one pass, half the time)", True),
+        "max_below": Param("float", "a smoothed profile that falls below the unloaded reference by more than this share "
+                           "of its peak measured a grip that shifted under the load, not the plate: a plate only "
+                           "pushes, and a lagging skin shows a load late but never below what it carries (intact "
+                           "grips on 0.3-0.9 s skins dipped at most 1 % of the peak, shifted ones 14-48 %)", 0.1,
+                           min=0.0),
         "max_regrasps": Param("int", "firmer re-grasps and rescans before giving up", 1, min=0, max=5),
         "regrasp_squeeze": Param("float", "further closing at each re-grasp", 0.01, "m", min=0.0005, max=0.03),
         "regrasp_force": Param("float", "gripper force limit of a re-grasp", 80.0, "N", min=1.0, device="gripper_force"),
@@ -273,9 +283,10 @@ class FindMaxLoad(ProgramSkill):
         peak; a problem names the rule that refused the peak and what to change."""
         min_top = self.least_top_width(peak.sample_position / self._span)
         sharp = not slipping and peak.clarity >= self.p.min_clarity and peak.top_share < min_top
-        # A plate only pushes: a profile that falls below its start by more than its peak measured a
-        # grip that shifted under the element's weight, not the plate.
-        drifted = not slipping and float(peak.smoothed.min()) < -abs(peak.load)
+        # A plate only pushes, and a lagging skin only shows a load late (creep and hysteresis leave it
+        # above the truth after unloading, never below): a profile that falls below its unloaded
+        # reference by more than `max_below` of its peak measured a grip that shifted under the load.
+        drifted = not slipping and float(peak.smoothed.min()) < -self.p.max_below * abs(peak.load)
         slipped = slipping or sharp or drifted
         if slipping:
             return peak, Refusal(f"{stopped} (rule 'slip')", FIRMER), True, slipped
@@ -292,8 +303,9 @@ class FindMaxLoad(ProgramSkill):
                                  f"{FIRMER}, or, if this plate's maximum is that sharp, lower 'min_top_width'"), True, slipped
         if drifted:
             return peak, Refusal(f"the element shifted in the grip during the scan: the load fell to "
-                                 f"{peak.smoothed.min():.2f} px, below its start by more than its peak {peak.load:.2f} px "
-                                 "(a plate only pushes)", FIRMER), True, slipped
+                                 f"{peak.smoothed.min():.2f} px, below its unloaded reference by more than "
+                                 f"{self.p.max_below:g} of its peak {peak.load:.2f} px (rule 'max_below': a plate "
+                                 "only pushes)", FIRMER), True, slipped
         return peak, None, False, slipped
 
     def _unclear(self, peak) -> tuple[Refusal, bool]:

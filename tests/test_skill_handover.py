@@ -129,8 +129,10 @@ def weight_then(h, then: dict | None = None) -> callable:
 def test_give_does_not_take_added_weight_for_a_tug():
     h = one_skill("{mode: give, wait: 2.0}", gripper_width=0.045, object_width=0.05)
     h.script(weight_then(h))
-    h.tick(30)
-    assert h.status("s") == "RUNNING" and "weight added, not a tug" in h.feedback("s")
+    h.tick(30)  # the weight still grows: the skin has not settled, and a slow downward pull is no tug
+    assert h.status("s") == "RUNNING" and "waiting for the skin to settle" in h.feedback("s")
+    h.tick(20)  # settled on the added weight, then more of it is no tug either
+    assert h.status("s") == "RUNNING" and "waiting for the person" in h.feedback("s")
     assert not h.gripper.commands_named("move")  # still holding
     assert h.run_until_done(100).name == "FAILURE" and "no one took the object" in h.feedback("s")
 
@@ -173,3 +175,28 @@ def test_sand_poured_into_a_held_box_is_not_a_tug():
     assert h.run_until_done(1000).name == "FAILURE"
     assert "no one took the object within 8 s; still holding it" in h.feedback("s/give")
     assert not cell.world.metrics()["box dropped"]
+
+
+def test_give_waits_for_a_slow_skin_to_settle_and_then_opens_on_a_lift():
+    """A 0.9 s skin still showing the hand-over's load when give starts: 0.9 px still to come at
+    50 deg from straight down (weight, and a pad relaxing sideways), with 0.03 px of seeded noise and
+    the pipeline's slip lit by the moving markers. Give waits until that rest has settled, holding
+    meanwhile, takes its references then, and opens on the person's lift (shear up the image)."""
+    rng = np.random.default_rng(11)
+
+    def script(tick, t):
+        if tick >= 150:  # the person lifts
+            return {f: touch(f, normal=20.0, shear=(0.0, -1.0), area=0.3) for f in ("left", "right")}
+        rest = 0.3 * (1.0 - np.exp(-t / 0.9))  # per finger, 0.36 along image x (sideways), 0.3 along y (down)
+        return {f: touch(f, normal=20.0, shear=(1.0 + 1.2 * rest + rng.normal(0, 0.03), 1.5 + rest + rng.normal(0, 0.03)),
+                         area=0.3, slip=0.03) for f in ("left", "right")}
+
+    h = one_skill("{mode: give}", gripper_width=0.045, object_width=0.05)
+    h.script(script)
+    h.tick(30)
+    assert "waiting for the skin to settle" in h.feedback("s")
+    h.tick(119)
+    assert not h.gripper.commands_named("move")  # settled on the rest of the load: no tug felt
+    assert "waiting for the person" in h.feedback("s")
+    h.tick(10)
+    assert h.gripper.commands_named("move")  # the lift opens the fingers

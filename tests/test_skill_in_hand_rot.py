@@ -147,3 +147,47 @@ def test_the_turn_stops_when_a_camera_cannot_tell_the_object_from_its_background
         if status == "FAILURE":
             assert "cannot tell the object from its background" in h.feedback("s")
             assert widths(h)[-1] == pytest.approx(W0)  # closed again where the turn stopped
+
+
+def firm_bar(h, needs: float):
+    """Script of a bar held firmer than usual: it turns 1 deg per tick, slipping, only while the
+    fingers are open more than `needs` beyond W0."""
+    turned = [0.0]
+
+    def script(tick, t):
+        slipping = h.gripper.width() > W0 + needs
+        turned[0] += 1.0 if slipping else 0.0
+        angle = math.radians(turned[0])
+        return {f: touch(f, normal=10.0, area=0.25, orientation=s * angle, slip=0.1 * slipping)
+                for f, s in (("left", -1.0), ("right", 1.0))}
+    return script
+
+
+def test_slip_variant_opens_further_when_a_firm_grip_holds_the_bar_still():
+    """8 mm of opening needed where `opening` gives 6: the bar stands still once the opening has
+    stopped growing, so the opening grows by 3 mm (without a jump of the fingers) and the bar turns;
+    with `max_opening` no larger than `opening` it never does."""
+    h = one_skill("{variant: slip, target: 30, alpha: 0.9, stall: 0.5}")
+    h.script(firm_bar(h, 0.008))
+    assert h.run_until_done(600).name == "SUCCESS", h.feedback("s")
+    w = widths(h)
+    assert w.max() > W0 + 0.008 and np.abs(np.diff(w[:-1])).max() < 0.001  # wider, and gently
+    stuck = one_skill("{variant: slip, target: 30, alpha: 0.9, stall: 0.5, max_opening: 0.006, max_time: 5}")
+    stuck.script(firm_bar(stuck, 0.008))
+    assert stuck.run_until_done(600).name == "FAILURE"
+    assert "turned only 0 of 30 deg" in stuck.feedback("s") and widths(stuck).max() <= W0 + 0.006 + 1e-9
+
+
+def test_widening_grows_only_while_the_turn_is_too_slow_at_an_opening_no_longer_growing():
+    from behaviours.in_hand_rot import Widening
+
+    w = Widening(0.006, 0.012, 1.0)
+    assert w.update(0.0, 0.0, 0.5, 3.0) == 0.5  # the window starts
+    assert w.update(1.0, 0.0, 0.9, 3.0) == 0.9 and w.span == 0.006  # the opening still grew (0.4): wait
+    assert w.update(1.5, 0.5, 0.92, 3.0) == 0.92 and w.span == 0.006  # mid-window
+    share = w.update(2.0, 0.5, 0.92, 3.0)  # grew 0.02, turned 0.5 deg of the 3 needed: 3 mm more
+    assert w.span == pytest.approx(0.009) and share * w.span == pytest.approx(0.92 * 0.006)  # no jump
+    assert w.update(3.0, 4.0, share, 3.0) == share and w.span == pytest.approx(0.009)  # 3.5 deg/s: fast enough
+    for t in (4.0, 5.0, 6.0, 7.0):
+        share = w.update(t, 4.0, share, 3.0)
+    assert w.span == pytest.approx(0.012)  # never past max_opening

@@ -353,6 +353,21 @@ def test_find_max_load_takes_a_profile_falling_below_its_start_for_a_shifting_gr
     assert h.blackboard("/task/best_pose") is None
 
 
+def test_find_max_load_refuses_a_profile_a_tenth_of_its_peak_below_the_reference():
+    """A grip that gave way slowly caps the load (a wide top the sharpness rule passes) and leaves the
+    element shifted: the reading falls below the unloaded reference (by 14-48 % of the peak with
+    0.3-0.9 s skins, whose firmer grasp slips too slowly for the slip rule). A lagging skin shows loads
+    late, never below the truth, so rule 'max_below' (0.1 of the peak) refuses 15 %; 3 % is taken."""
+    refused = one_skill("find_max_load", "{speed: 0.05, max_regrasps: 0}")
+    for h, drift in ((refused, 1.6), (one_skill("find_max_load", "{speed: 0.05, max_regrasps: 0}"), 0.3)):
+        h.set("/task/element", E1)
+        h.set("/task/plates", PLATES)
+        h.script(scaled_plate(h, np.random.default_rng(5), peak=10.0, noise=0.3, drift=drift))
+        h.run_until_done(4000)
+    assert refused.status("s") == "FAILURE" and "(rule 'max_below': a plate only pushes)" in refused.feedback("s")
+    assert h.status("s") == "SUCCESS", h.feedback("s")
+
+
 def test_find_max_load_does_not_trust_a_peak_at_the_end_of_the_scan():
     h = one_skill("find_max_load", "{speed: 0.05, max_regrasps: 0}")
     h.set("/task/element", E1)
