@@ -40,13 +40,26 @@ class MarkerPainter:
         (H, W, 3) uint8 image `target`, in place (`squash`: theirs, if the caller has it already)."""
         if not len(position):
             return
-        # Pixels up to 0.5 px (in (u, v) of `_paint`) beyond the rim are covered in part: at most
-        # a_t + 0.5 / sqrt(1 - foreshortening) px from the centre; the patch starts at the pixel
-        # holding the centre, so it reaches one more pixel on the far side.
-        reach = int(np.ceil(max(float(size.max()) / 2.0, 1.0) + 0.5 / np.sqrt(1.0 - self.foreshortening)))
         _paint(target, np.asarray(position, float), np.asarray(size, float),
                self.squash(position) if squash is None else squash,
-               self.centre.astype(float), reach, MARKER_GREY)
+               self.centre.astype(float), self._reach(size), MARKER_GREY)
+
+    def boxes(self, position: np.ndarray, size: np.ndarray) -> np.ndarray:
+        """(N, 4) int64 rectangles (y0, y1, x0, x1), clipped to the image, holding every pixel `paint`
+        writes for each marker (its patch): outside them the image is left as it was."""
+        reach = self._reach(size) if len(position) else 0
+        corner = np.floor(np.asarray(position, float)).astype(np.int64)
+        boxes = np.empty((len(corner), 4), np.int64)
+        for axis, (start, end), side in ((1, (0, 1), self.image_size[1]), (0, (2, 3), self.image_size[0])):
+            np.minimum(np.maximum(corner[:, axis] - reach, 0), side, out=boxes[:, start])
+            np.minimum(np.maximum(corner[:, axis] + reach + 2, 0), side, out=boxes[:, end])
+        return boxes
+
+    def _reach(self, size: np.ndarray) -> int:
+        """Half the side of the markers' patches, px. Pixels up to 0.5 px (in (u, v) of `_paint`) beyond
+        the rim are covered in part: at most a_t + 0.5 / sqrt(1 - foreshortening) px from the centre;
+        the patch starts at the pixel holding the centre, so it reaches one more pixel on the far side."""
+        return int(np.ceil(max(float(np.max(size)) / 2.0, 1.0) + 0.5 / np.sqrt(1.0 - self.foreshortening)))
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
