@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from numba import njit
 
 from perception.config import ProximityConfig
 from perception.state import ObjectInfo
@@ -38,6 +39,22 @@ def cell_means(mask: np.ndarray) -> np.ndarray:
     ch, cw = h // 3, w // 3
     corners = cv2.integral(mask)[::ch, ::cw][:4, :4].astype(np.float64)
     return (corners[1:, 1:] - corners[:-1, 1:] - corners[1:, :-1] + corners[:-1, :-1]) / (ch * cw)
+
+
+@njit(cache=True, nogil=True)
+def hsv_bins(hsv, lh, ls, lv, thresh):  # pragma: no cover - compiled
+    """(not-black mask: 255 where V > `thresh`, else 0; flat histogram bin of each pixel: the sum of
+    its H, S and V look-ups, saturated at 65535) of an (H, W, 3) uint8 HSV image, in one pass (what
+    a split, a threshold and three look-ups and two adds did in eight)."""
+    height, width = hsv.shape[0], hsv.shape[1]
+    not_black = np.empty((height, width), np.uint8)
+    bins = np.empty((height, width), np.uint16)
+    for y in range(height):
+        for x in range(width):
+            v = hsv[y, x, 2]
+            not_black[y, x] = 255 if v > thresh else 0
+            bins[y, x] = min(np.int64(lh[hsv[y, x, 0]]) + ls[hsv[y, x, 1]] + lv[v], 65535)
+    return not_black, bins
 
 
 class ProximityVision:
@@ -76,12 +93,7 @@ class ProximityVision:
         small = bgr if (bgr.shape[1], bgr.shape[0]) == size else cv2.resize(
             bgr, size, interpolation=cv2.INTER_NEAREST)
         hsv = cv2.cvtColor(small, cv2.COLOR_BGR2HSV)
-        h, s, v = cv2.split(hsv)
-        _, not_black = cv2.threshold(v, self.cfg.thresh_blk_v, 255, cv2.THRESH_BINARY)
-        lh, ls, lv = self._luts
-        bins = cv2.LUT(h, lh)  # OpenCV's table look-ups and adds: half the time of numpy's take
-        cv2.add(bins, cv2.LUT(s, ls), dst=bins)
-        cv2.add(bins, cv2.LUT(v, lv), dst=bins)
+        not_black, bins = hsv_bins(hsv, *self._luts, int(self.cfg.thresh_blk_v))
         return ProxFrame(small, not_black, bins)
 
     def calibrate_background(self, frames: Sequence[np.ndarray]) -> None:

@@ -53,7 +53,20 @@ def copy_rects(src, dst, rects):  # pragma: no cover - compiled
     """`dst[y0:y1, x0:x1] = src[y0:y1, x0:x1]` for each of the rectangles `rects` (K, 4)."""
     for k in range(len(rects)):
         y0, y1, x0, x1 = rects[k, 0], rects[k, 1], rects[k, 2], rects[k, 3]
-        for y in range(y0, y1):
-            for x in range(x0, x1):
-                for ch in range(dst.shape[2]):
-                    dst[y, x, ch] = src[y, x, ch]
+        if x1 > x0:
+            for y in range(y0, y1):
+                dst[y, x0:x1] = src[y, x0:x1]
+
+
+@njit(cache=True, nogil=True)
+def patch_boxes(position, reach, width, height):  # pragma: no cover - compiled
+    """(N, 4) rectangles (y0, y1, x0, x1) of the (2 reach + 2) px square patches starting `reach` px
+    before the pixel holding each of the `position` (N, 2) px (x, y), clipped to the image."""
+    boxes = np.empty((len(position), 4), np.int64)
+    for i in range(len(position)):
+        x, y = np.int64(np.floor(position[i, 0])), np.int64(np.floor(position[i, 1]))
+        boxes[i, 0] = min(max(y - reach, 0), height)
+        boxes[i, 1] = min(max(y + reach + 2, 0), height)
+        boxes[i, 2] = min(max(x - reach, 0), width)
+        boxes[i, 3] = min(max(x + reach + 2, 0), width)
+    return boxes

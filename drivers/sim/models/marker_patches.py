@@ -15,6 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from drivers.sim.models.layer_kernels import patch_boxes
+
 MARKER_GREY = 18.0  # marker core brightness before lighting
 
 
@@ -35,25 +37,18 @@ class MarkerPainter:
         return np.sqrt(1.0 - self.foreshortening * np.minimum(rho / self.window_radius, 1.0) ** 2)
 
     def paint(self, target: np.ndarray, position: np.ndarray, size: np.ndarray,
-              squash: np.ndarray | None = None) -> None:
+              squash: np.ndarray | None = None) -> np.ndarray:
         """Draw markers centred at `position` (N, 2) px with diameters `size` (N,) px over the
-        (H, W, 3) uint8 image `target`, in place (`squash`: theirs, if the caller has it already)."""
+        (H, W, 3) uint8 image `target`, in place (`squash`: theirs, if the caller has it already).
+        Returns (N, 4) int64 rectangles (y0, y1, x0, x1), clipped to the image, holding every pixel
+        written for each marker (its patch): outside them `target` is left as it was."""
+        position = np.asarray(position, float).reshape(-1, 2)
         if not len(position):
-            return
-        _paint(target, np.asarray(position, float), np.asarray(size, float),
-               self.squash(position) if squash is None else squash,
-               self.centre.astype(float), self._reach(size), MARKER_GREY)
-
-    def boxes(self, position: np.ndarray, size: np.ndarray) -> np.ndarray:
-        """(N, 4) int64 rectangles (y0, y1, x0, x1), clipped to the image, holding every pixel `paint`
-        writes for each marker (its patch): outside them the image is left as it was."""
-        reach = self._reach(size) if len(position) else 0
-        corner = np.floor(np.asarray(position, float)).astype(np.int64)
-        boxes = np.empty((len(corner), 4), np.int64)
-        for axis, (start, end), side in ((1, (0, 1), self.image_size[1]), (0, (2, 3), self.image_size[0])):
-            np.minimum(np.maximum(corner[:, axis] - reach, 0), side, out=boxes[:, start])
-            np.minimum(np.maximum(corner[:, axis] + reach + 2, 0), side, out=boxes[:, end])
-        return boxes
+            return np.zeros((0, 4), np.int64)
+        reach = self._reach(size)
+        _paint(target, position, np.asarray(size, float), self.squash(position) if squash is None else squash,
+               self.centre.astype(float), reach, MARKER_GREY)
+        return patch_boxes(position, reach, *self.image_size)
 
     def _reach(self, size: np.ndarray) -> int:
         """Half the side of the markers' patches, px. Pixels up to 0.5 px (in (u, v) of `_paint`) beyond

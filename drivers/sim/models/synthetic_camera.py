@@ -301,8 +301,7 @@ class SyntheticFingerVision:
             self._marked[:] = self._under
         else:  # the layer beneath where it was redrawn and where the markers were
             copy_rects(self._under, self._marked, np.concatenate([redrawn, self._boxes]))
-        self._painter.paint(self._marked, self._drawn_position, self._drawn_size, self._squash)
-        boxes = self._painter.boxes(self._drawn_position, self._drawn_size)
+        boxes = self._painter.paint(self._marked, self._drawn_position, self._drawn_size, self._squash)
         if look.plain:
             self._clean = self._marked
         elif look.blur > 0:
