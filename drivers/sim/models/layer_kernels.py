@@ -1,6 +1,6 @@
-"""The synthetic FingerVision camera's per-rectangle work, compiled (numba): restoring the layer beneath
-the markers where markers were drawn, and lighting a frame (gain, gradient, colour cast, glare) on
-the rectangles that changed only.
+"""The synthetic FingerVision camera's per-rectangle work, compiled (numba): the rectangles the markers
+are drawn on, and lighting a frame (gain, gradient, colour cast, glare) on the rectangles that
+changed only.
 
 The lighting does, pixel by pixel, the float32 operations the whole-image numpy drawing did, in the
 same order (v * light * cast, then v + glare * (255 - v), rounded half to even and saturated as
@@ -46,16 +46,6 @@ def light_float(src, dst, light, cast, glare):  # pragma: no cover - compiled
             gain, shine = light[y, x], glare[y, x]
             for ch in range(3):
                 dst[y, x, ch] = _lit(src[y, x, ch], gain, cast[ch], shine)
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def copy_rects(src, dst, rects):  # pragma: no cover - compiled
-    """`dst[y0:y1, x0:x1] = src[y0:y1, x0:x1]` for each of the rectangles `rects` (K, 4)."""
-    for k in range(len(rects)):
-        y0, y1, x0, x1 = rects[k, 0], rects[k, 1], rects[k, 2], rects[k, 3]
-        if x1 > x0:
-            for y in range(y0, y1):
-                dst[y, x0:x1] = src[y, x0:x1]
 
 
 @njit(cache=True, nogil=True)

@@ -90,7 +90,9 @@ def _paint(target, position, size, squash, centre, reach, grey):  # pragma: no c
                 u = dx * c0 + dy * c1
                 v = dy * c2 - dx * c3
                 keep = f32(math.sqrt(float(u) * float(u) + float(v) * float(v))) - rim
-                keep = min(max(keep, f32(0.0)), f32(1.0))
+                if keep >= f32(1.0):  # outside the disc: the pixel would be written as it is
+                    continue
+                keep = max(keep, f32(0.0))
                 ink = keep * f32(-grey) + f32(grey + 0.5)
                 for ch in range(3):
                     target[y, x, ch] = np.uint8(f32(target[y, x, ch]) * keep + ink)
