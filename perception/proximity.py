@@ -57,6 +57,16 @@ def hsv_bins(hsv, lh, ls, lv, thresh):  # pragma: no cover - compiled
     return not_black, bins
 
 
+@njit(cache=True, nogil=True)
+def back_project(lut, bins, not_black):  # pragma: no cover - compiled
+    """`lut[bins] & not_black` (uint8), in one pass."""
+    out = np.empty(bins.shape, np.uint8)
+    for y in range(bins.shape[0]):
+        for x in range(bins.shape[1]):
+            out[y, x] = lut[bins[y, x]] & not_black[y, x]
+    return out
+
+
 class ProximityVision:
     """Background and object colour models, object mask and its shape summary."""
 
@@ -77,6 +87,8 @@ class ProximityVision:
         self._mask_lut: tuple[np.ndarray, np.ndarray] | None = None  # (tracking model, its binary LUT)
         self._empty: ProxFrame | None = None  # the first background frame: the view with no object
         self._match: tuple[np.ndarray, float] | None = None  # (tracking model, its background match)
+        pixel = np.zeros((1, 1), np.uint8)  # the compiled loops loaded now, not on the first frame
+        back_project(self._luts[0].astype(np.uint8), hsv_bins(np.zeros((1, 1, 3), np.uint8), *self._luts, 0)[1], pixel)
 
     def _zero(self) -> np.ndarray:
         return np.zeros(self.cfg.bins, np.float32)
@@ -159,7 +171,7 @@ class ProximityVision:
         """(object mask, dilated object mask) from back-projecting the oldest (tracking) model."""
         # The original keeps values (TOZERO); erosion, dilation and binary moments only see the
         # support, so a binary mask gives the same result and ANDs cleanly with motion masks.
-        back = cv2.bitwise_and(np.take(self._binary_lut(), frame.bins), frame.not_black)
+        back = back_project(self._binary_lut(), frame.bins, frame.not_black)
         obj = cv2.erode(back, _KERNEL, iterations=self.cfg.n_erode) if self.cfg.n_erode else back
         wide = cv2.dilate(obj, _KERNEL, iterations=self.cfg.n_dilate) if self.cfg.n_dilate else obj
         return obj, wide
