@@ -293,11 +293,10 @@ class SyntheticFingerVision:
             self._drawn_position, self._drawn_size = position.copy(), size.copy()
             self._squash = self._painter.squash(position)
             self._diameters = size * self._squash  # equivalent diameters of the squashed discs
-        if not moved and not self._dirty and look.lighting == self._lighting:
+        lighting = look.lighting
+        if not moved and not self._dirty and lighting == self._lighting:
             return self._clean
         self._seen = self._visible(self._drawn_position, look)
-        whole = self.redraw_all or look.blur > 0 or look.lighting != self._lighting
-        redrawn = np.array(self._dirty, np.int64).reshape(-1, 4)  # of the layer beneath
         np.copyto(self._marked, self._under)  # one copy: quicker than the changed rectangles' rows
         boxes = self._painter.paint(self._marked, self._drawn_position, self._drawn_size, self._squash)
         if look.plain:
@@ -309,13 +308,14 @@ class SyntheticFingerVision:
                 self._clean = np.empty_like(self._marked)
             light, cast, glare = self._light(look)
             h, w = self._marked.shape[:2]
-            if whole:
+            if self.redraw_all or lighting != self._lighting:
                 rects = np.array([[0, h, 0, w]])
-            else:  # a marker's patch of the last frame is lit again with its new one (mostly the same box)
+            else:  # where the layer beneath was redrawn; a marker's patch of the last frame is lit again
+                # with its new one (mostly the same box)
                 kept = (self._boxes == boxes).all(axis=1) if len(self._boxes) == len(boxes) else False
-                rects = np.concatenate([redrawn, self._boxes[~kept], boxes])
+                rects = np.concatenate([np.array(self._dirty, np.int64).reshape(-1, 4), self._boxes[~kept], boxes])
             light_rects(self._marked, self._clean, rects, light, cast, glare)
-        self._boxes, self._dirty, self._lighting = boxes, [], look.lighting
+        self._boxes, self._dirty, self._lighting = boxes, [], lighting
         return self._clean
 
     def _light(self, look: Appearance) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
