@@ -7,6 +7,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from numba import njit
 
 from fvfiles.errors import FvtreeError
 from perception.config import HealthConfig
@@ -51,6 +52,8 @@ class ImageQuality:
         self._repeats = 0
         self._region_repeats = np.zeros(GRID * GRID, dtype=int)
         self.saturated = 0.0  # share of saturated pixels (>= 250) in the last frame checked
+        blank = np.zeros((GRID, GRID), np.uint8)
+        region_stats(blank, blank, GRID)  # the compiled check loaded now, not on the first frame
 
     def reset(self) -> None:
         """Forget the previous frame (after a recalibration or camera restart)."""
@@ -59,11 +62,10 @@ class ImageQuality:
 
     def _frozen_region(self, sample: np.ndarray, last: np.ndarray) -> str:
         """Why a part of the image counts as frozen, or "": see HealthConfig.frozen_region_frames."""
-        h, w = (sample.shape[0] // GRID) * GRID, (sample.shape[1] // GRID) * GRID
-        shape = (GRID, h // GRID, GRID, w // GRID)
-        now = sample[:h, :w].reshape(shape)
-        same = (now == last[:h, :w].reshape(shape)).mean(axis=(1, 3)).ravel()
-        textured = now.std(axis=(1, 3)).ravel() > TEXTURED
+        count, spread = region_stats(sample, last, GRID)
+        n = (sample.shape[0] // GRID) * (sample.shape[1] // GRID)
+        same = count / n
+        textured = spread > TEXTURED * TEXTURED * n * n  # std > TEXTURED, in exact integers
         frozen = (same >= self.config.frozen_region_share) & textured & (same.min() < LIVE)
         self._region_repeats = np.where(frozen, self._region_repeats + 1, 0)
         worst = int(self._region_repeats.argmax())
@@ -94,6 +96,30 @@ class ImageQuality:
         if self._repeats >= self.config.frozen_frames:
             return f"camera frozen ({self._repeats + 1} identical frames)"
         return part
+
+
+@njit(cache=True, nogil=True)
+def region_stats(now, last, grid):  # pragma: no cover - compiled
+    """Per region of a `grid` x `grid` split of the (H, W) uint8 image `now` (the rows and columns
+    left over by the split ignored), row-major: (pixels equal to `last`'s, n^2 x the variance of its
+    values, n = the pixels of a region), in exact integers (one pass where numpy's reshaped mean and
+    std make several)."""
+    rh, rw = now.shape[0] // grid, now.shape[1] // grid
+    same = np.zeros(grid * grid, np.int64)
+    spread = np.zeros(grid * grid, np.int64)
+    for gy in range(grid):
+        for gx in range(grid):
+            total, squares, equal = 0, 0, 0
+            for y in range(gy * rh, (gy + 1) * rh):
+                for x in range(gx * rw, (gx + 1) * rw):
+                    v = np.int64(now[y, x])
+                    total += v
+                    squares += v * v
+                    equal += now[y, x] == last[y, x]
+            n = rh * rw
+            same[gy * grid + gx] = equal
+            spread[gy * grid + gx] = n * squares - total * total
+    return same, spread
 
 
 def read_clip(path: str | Path, limit: int | None = None) -> list[np.ndarray]:

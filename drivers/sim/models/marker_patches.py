@@ -15,6 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from drivers.sim.models.layer_kernels import patch_boxes
+
 MARKER_GREY = 18.0  # marker core brightness before lighting
 
 
@@ -35,18 +37,24 @@ class MarkerPainter:
         return np.sqrt(1.0 - self.foreshortening * np.minimum(rho / self.window_radius, 1.0) ** 2)
 
     def paint(self, target: np.ndarray, position: np.ndarray, size: np.ndarray,
-              squash: np.ndarray | None = None) -> None:
+              squash: np.ndarray | None = None) -> np.ndarray:
         """Draw markers centred at `position` (N, 2) px with diameters `size` (N,) px over the
-        (H, W, 3) uint8 image `target`, in place (`squash`: theirs, if the caller has it already)."""
+        (H, W, 3) uint8 image `target`, in place (`squash`: theirs, if the caller has it already).
+        Returns (N, 4) int64 rectangles (y0, y1, x0, x1), clipped to the image, holding every pixel
+        written for each marker (its patch): outside them `target` is left as it was."""
+        position = np.asarray(position, float).reshape(-1, 2)
         if not len(position):
-            return
-        # Pixels up to 0.5 px (in (u, v) of `_paint`) beyond the rim are covered in part: at most
-        # a_t + 0.5 / sqrt(1 - foreshortening) px from the centre; the patch starts at the pixel
-        # holding the centre, so it reaches one more pixel on the far side.
-        reach = int(np.ceil(max(float(size.max()) / 2.0, 1.0) + 0.5 / np.sqrt(1.0 - self.foreshortening)))
-        _paint(target, np.asarray(position, float), np.asarray(size, float),
-               self.squash(position) if squash is None else squash,
+            return np.zeros((0, 4), np.int64)
+        reach = self._reach(size)
+        _paint(target, position, np.asarray(size, float), self.squash(position) if squash is None else squash,
                self.centre.astype(float), reach, MARKER_GREY)
+        return patch_boxes(position, reach, *self.image_size)
+
+    def _reach(self, size: np.ndarray) -> int:
+        """Half the side of the markers' patches, px. Pixels up to 0.5 px (in (u, v) of `_paint`) beyond
+        the rim are covered in part: at most a_t + 0.5 / sqrt(1 - foreshortening) px from the centre;
+        the patch starts at the pixel holding the centre, so it reaches one more pixel on the far side."""
+        return int(np.ceil(max(float(np.max(size)) / 2.0, 1.0) + 0.5 / np.sqrt(1.0 - self.foreshortening)))
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -82,7 +90,9 @@ def _paint(target, position, size, squash, centre, reach, grey):  # pragma: no c
                 u = dx * c0 + dy * c1
                 v = dy * c2 - dx * c3
                 keep = f32(math.sqrt(float(u) * float(u) + float(v) * float(v))) - rim
-                keep = min(max(keep, f32(0.0)), f32(1.0))
+                if keep >= f32(1.0):  # outside the disc: the pixel would be written as it is
+                    continue
+                keep = max(keep, f32(0.0))
                 ink = keep * f32(-grey) + f32(grey + 0.5)
                 for ch in range(3):
                     target[y, x, ch] = np.uint8(f32(target[y, x, ch]) * keep + ink)
