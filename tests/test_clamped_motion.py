@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from assembly.errors import TreeError
+from assembly.errors import TreeError, TreeErrors
 from assembly.language.reach import reach_errors
 from assembly.language.reader import load_tree
 from assembly.run.options import RunOptions
@@ -39,7 +39,13 @@ LIFT_IN_MM = "{skill: move_to, name: lift, params: {offset: [0.0, 0.0, 50]}}"
     (LIFT_IN_MM, "[0.0, 0.0, 50.5]", "[0.0, 0.0, 0.9]"),
 ])
 def test_a_move_the_safety_layer_clamps_fails_naming_requested_and_reachable(tmp_path, node, requested, reachable):
-    summary = run_tree(str(_tree(tmp_path, node)), RunOptions(runs_dir=None, quiet=True, plots=False))
+    """The run-time layer under the check below: `fvtree run` refuses such a tree before it builds the
+    cell (reach_errors), so the tree is read here without the cell's box, as a pose computed at run
+    time would reach the safety layer."""
+    path = _tree(tmp_path, node)
+    with pytest.raises(TreeErrors, match="outside the cell's workspace|cannot stay inside"):
+        run_tree(str(path), RunOptions(runs_dir=None, quiet=True, plots=False))
+    summary = run_tree(load_tree(path), RunOptions(runs_dir=None, quiet=True, plots=False))
     assert summary.status == "FAILURE"
     assert summary.message == (f"the requested position {requested} is outside the cell's workspace; the nearest "
                                f"reachable is {reachable} (the arm was not moved there)")

@@ -119,7 +119,8 @@ def _cells(out_dir: Path) -> dict[tuple[str, str | None], str]:
             if mode == "pixels":
                 data = yaml.safe_load(path.read_text())
                 data["pixel_workers"] = False
-                path.unlink()
+                if str(path) not in cells.values():  # a signals run's cell stays; only an intermediate goes
+                    path.unlink()
                 path = path.with_name(path.stem + "_one_process.yaml")
                 path.write_text(yaml.safe_dump(data))
             cells[(mode, off)] = str(path)

@@ -380,8 +380,9 @@ class _Parts:
 
 
 @sigterm_raises_terminated()  # from the start: SIGTERM while the cell is set up closes it like Ctrl-C
-def run_tree(tree: str | Path, options: RunOptions | None = None) -> Summary:
-    """Run a tree file end to end as `fvtree run` does; its summary (also in the run directory)."""
+def run_tree(tree: str | Path | TreeDocument, options: RunOptions | None = None) -> Summary:
+    """Run a tree file (or a tree already read) end to end as `fvtree run` does; its summary (also
+    in the run directory)."""
     with Run(tree, options) as run:
         return run.run()
 
