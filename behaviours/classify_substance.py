@@ -25,7 +25,9 @@ class ClassifySubstance(UsesModel, ProgramSkill):
         "duration": Param("float", "how long to stir", 4.0, "s", min=0.5, max=60.0),
         "min_confidence": Param("float", "fail below this probability of the best class", 0.6, min=0.0, max=1.0),
         "min_drag": Param("float", "shear felt while stirring (rms change from rest, beyond the rest noise) "
-                          "below this means the stick is not in anything", 0.2, "px", min=0.0),
+                          "below this means the stick is not in anything (in the air 0-0.07 px, more only while a skin "
+                          "still relaxes from the last stir; in the bowls 0.08-1.7 px, 5 % of trials under 0.15)",
+                          0.1, "px", min=0.0),
     }
     READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.STIR_TRIAL, keys.ROBOT_POSE, keys.ROBOT_FAULT, keys.ROBOT_MOVING)
     NEEDS = ("bowls",)
