@@ -11,7 +11,7 @@ from behaviours.skill_kit.base import Param, ProgramSkill
 from behaviours.skill_kit.model_files import UsesModel
 from behaviours.skill_kit.registry import register
 from behaviours.skill_kit.stirring import MOVEMENTS, next_trial, stir_steps
-from perception.learning.features import columns
+from perception.learning.features import REST_TICKS, columns
 
 
 @register
@@ -24,9 +24,10 @@ class ClassifySubstance(UsesModel, ProgramSkill):
         "movement": Param("str", "stirring movement", "circle_large_slow", choices=tuple(MOVEMENTS)),
         "duration": Param("float", "how long to stir", 4.0, "s", min=0.5, max=60.0),
         "min_confidence": Param("float", "fail below this probability of the best class", 0.6, min=0.0, max=1.0),
-        "min_drag": Param("float", "mean marker force below this means the stick is not in anything (the "
-                          "calibrated sensor under a 60 N grip reads 0.13 px stirring in the air, 0.35-0.47 px in "
-                          "the bowls)", 0.2, "px", min=0.0),
+        "min_drag": Param("float", "shear felt while stirring (rms change from rest, beyond the rest noise) "
+                          "below this means the stick is not in anything (in the air 0-0.07 px, more only while a skin "
+                          "still relaxes from the last stir; in the bowls 0.08-1.7 px, 5 % of trials under 0.15)",
+                          0.1, "px", min=0.0),
     }
     READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.STIR_TRIAL, keys.ROBOT_POSE, keys.ROBOT_FAULT, keys.ROBOT_MOVING)
     NEEDS = ("bowls",)
@@ -56,7 +57,11 @@ class ClassifySubstance(UsesModel, ProgramSkill):
 
     @staticmethod
     def _mean_drag(rows) -> float:
-        """Mean shear along the pads felt while stirring (px), from the force columns."""
+        """Shear along the pads felt while stirring (px, from the force columns): its rms change
+        from the rest rows' mean, beyond their own noise (a skin's rest jitter spans 0.046-0.32 px,
+        as much as the drag of a shallow dip)."""
         names = columns()
-        shear = [names.index(f"{f}.{c}") for f in ("left", "right") for c in ("fx", "fz")]
-        return float(np.abs(np.asarray(rows)[:, shear]).mean())
+        shear = np.asarray(rows)[:, [names.index(f"{f}.{c}") for f in ("left", "right") for c in ("fx", "fz")]]
+        rest, stirring = shear[:REST_TICKS], shear[REST_TICKS:]
+        felt, noise = np.mean((stirring - rest.mean(axis=0)) ** 2), np.mean(rest.var(axis=0))
+        return float(np.sqrt(max(felt - noise, 0.0)))

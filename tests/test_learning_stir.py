@@ -11,8 +11,8 @@ import pytest
 from assembly.cli import main
 from drivers.sim.scenes.stir import SUBSTANCES, session_batch
 from perception.learning.dataset import Dataset
-from perception.learning.features import columns
-from perception.learning.stir import PAPER_MODEL, split, train_stir, trial_features, trials
+from perception.learning.features import REST_TICKS, columns
+from perception.learning.stir import PAPER_MODEL, _signal_matrix, split, train_stir, trial_features, trials
 
 TREES = Path(__file__).resolve().parents[1] / "trees"
 
@@ -48,6 +48,27 @@ def test_trial_features_do_not_depend_on_the_sensors_share_of_the_area_or_tz_off
     other[:, [names.index(f"{f}.area") for f in ("left", "right")]] *= 0.9
     other[:, [names.index(f"{f}.tz") for f in ("left", "right")]] += 0.05
     assert np.allclose(trial_features(rows), trial_features(other))
+
+
+def test_trial_features_count_what_stirring_adds_beyond_the_rest_noise(stirred):
+    """A noisier skin (rest jitter 0.046-0.32 px between sensors) adds to every signal's spread;
+    measured against the trial's rest rows, most of what it adds is taken out."""
+    force = [i for i, name in enumerate(columns()) if name.split(".")[-1] in ("fx", "fz")]
+    rng = np.random.default_rng(0)
+    kept, added = 0.0, 0.0
+    for segment in range(3, 9):
+        rows = stirred.features[stirred.segment == segment]
+        assert len(rows) > REST_TICKS + 60
+        noisy = rows.copy()
+        noisy[:, force] += rng.normal(0.0, 0.3, (len(rows), len(force)))
+        signals = len(trial_features(rows)) // 4
+        clean, measured = (trial_features(r)[signals:2 * signals] for r in (rows, noisy))
+        raw = _signal_matrix(noisy)[REST_TICKS:].std(axis=0)  # the spread as it was taken before
+        changed = np.abs(raw - _signal_matrix(rows)[REST_TICKS:].std(axis=0)) > 0.05
+        assert changed.any()  # the force signals' spread grew with the noise
+        kept += np.abs(measured - clean)[changed].sum()
+        added += np.abs(raw - clean)[changed].sum()
+    assert kept < 0.6 * added, (kept, added)
 
 
 def test_the_paper_split_holds_out_48_of_120_trials_stratified():

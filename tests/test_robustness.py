@@ -22,8 +22,8 @@ HEAVY = {"assembly_heavy.yaml"}  # the longest demo: in the slow suite only
 # Demos that fall short on the randomised cell for a reason a small skill change does not remove
 # (README, `fvtree bench robustness`): strict, so a fix shows as an unexpected pass.
 SHORT = {
-    "classify_substance.yaml": "StirLearn's model was trained on the nominal sensor: a drawn rest jitter, gain "
-                               "or skin lag moves its features enough to misread a bowl on most seeds",
+    "classify_substance.yaml": "StirLearn, trained on randomised sessions (f1 0.92 on held-out ones), reads all "
+                               "three bowls in 14 of 20 seeds, 1 of seeds 0-2: the sugar is read as flour",
 }
 
 

@@ -8,6 +8,7 @@ import pytest
 
 from assembly.testing import TreeHarness
 from behaviours.skill_kit.stirring import MOVEMENTS
+from perception.learning.features import REST_TICKS
 
 
 def one_skill(params: str = "{}", times: int = 1) -> TreeHarness:
@@ -19,6 +20,9 @@ def one_skill(params: str = "{}", times: int = 1) -> TreeHarness:
 def test_stir_follows_the_movement_and_comes_back():
     h = one_skill("{movement: circle_large_slow, duration: 3.0}")
     start = h.arm.pose()
+    h.tick(REST_TICKS)  # held still first: the trial's rest rows, StirLearn's reference
+    assert not h.arm.is_moving() and h.blackboard("/task/stir_trial")["active"] is True
+    assert np.allclose(h.arm.pose(), start)
     path = []
     for _ in range(90):
         h.tick()
@@ -48,7 +52,7 @@ def test_stir_reports_an_arm_fault():
 
 def test_stir_halted_stops_the_arm():
     h = one_skill()
-    h.tick(10)
+    h.tick(REST_TICKS + 10)
     assert h.arm.is_moving()
     h.halt()
     assert h.status("s") == "INVALID" and not h.arm.is_moving()

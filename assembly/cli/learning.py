@@ -16,6 +16,9 @@ def add_commands(sub: Subparsers) -> None:
     rec.add_argument("--seed", type=SEED, default=0, help="seed of the first run")
     rec.add_argument("--runs", type=POSITIVE_INT, default=1,
                      help="record this many runs (seeds seed, seed+1, ...)")
+    rec.add_argument("--randomise", action="store_true",
+                     help="on the randomised simulated cell (`world: {randomise: true}`, as `fvtree bench "
+                          "robustness` runs it): each run's seed draws its sensor, skin and scene")
     add_perception_option(rec)
     rec.set_defaults(func=cmd_record)
 
@@ -48,9 +51,18 @@ def add_commands(sub: Subparsers) -> None:
 
 
 def cmd_record(args) -> int:
+    import tempfile
+    from pathlib import Path
+
+    from assembly.bench.robustness import randomised_cell
     from assembly.dataset_recorder import record
 
-    print(f"wrote {record(args.tree, args.out, cell=args.cell, seed=args.seed, runs=args.runs, perception=args.perception)}")
+    if args.randomise and args.cell != "sim":
+        raise FvtreeError(f"--randomise draws the simulated cell (sim); it cannot be combined with --cell {args.cell}")
+    with tempfile.TemporaryDirectory() as tmp:
+        cell = str(randomised_cell(Path(tmp))) if args.randomise else args.cell
+        out = record(args.tree, args.out, cell=cell, seed=args.seed, runs=args.runs, perception=args.perception)
+    print(f"wrote {out}")
     return 0
 
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from behaviours.skill_kit import keys
 from behaviours.skill_kit.base import ProgramSkill
-from perception.learning.features import tick_features
+from perception.learning.features import REST_TICKS, tick_features
 
 
 def _circle(radius: float, period: float, sense: float = 1.0) -> Callable[[float], np.ndarray]:
@@ -54,14 +54,21 @@ def next_trial(previous: dict | None) -> int:
 
 
 def stir_steps(skill: ProgramSkill, movement: str, duration: float, trial: int):
-    """Follow the movement for `duration` s with velocity commands and return to the start;
-    yields once per tick and returns the per-tick feature rows felt while stirring.
+    """Hold the dipped stick still for REST_TICKS ticks, follow the movement for `duration` s with velocity
+    commands and return to the start; yields once per tick and returns the per-tick feature rows
+    felt at rest and while stirring (the rest rows first: what
+    the sensor shows with nothing moving, its rest noise and its reading of the grip, against which
+    StirLearn measures the stirring, since a lab never knows its sensor's gain and noise exactly).
 
     The command is the path's own velocity plus a share of the position error: correcting the
     whole error every tick would oscillate on a real controller, whose pose lags the command."""
     arm, dt = skill.cell.arm, skill.cell.clock.period
     start, path, rows = skill.pose(), MOVEMENTS[movement], []
     skill.write(keys.STIR_TRIAL, {"trial": trial, "movement": movement, "active": True})
+    for _ in range(REST_TICKS):
+        rows.append(tick_features(*skill.tactile()))
+        skill.feedback_message = f"holding still before stirring ({movement})"
+        yield
     t = 0.0
     while t < duration:
         rows.append(tick_features(*skill.tactile()))

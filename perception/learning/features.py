@@ -16,6 +16,7 @@ from perception.state import FINGERS, MarkerField, TactileState
 FEATURE_VERSION = 1
 GRID = (3, 3)  # columns x rows of image cells
 MARKER_CHANNELS = ("dx", "dy", "ds")
+REST_TICKS = 15  # a StirLearn trial's first rows: the dipped stick held still (0.5 s at 30 Hz), its reference
 SUMMARY = ("fx", "fy", "fz", "tx", "ty", "tz", "area", "cx", "cy", "orientation", "slip")
 
 
