@@ -11,30 +11,12 @@ as `[header of type 'N', uid as text]`."""
 from __future__ import annotations
 
 import random
-import socket
 import struct
 import time
 
 import zmq
 
 TIMEOUT_MS = 60_000  # generous: the server answers from its own thread, but the machine may be loaded
-
-
-def free_port_pair() -> int:
-    """A port P with P and P + 1 free on 127.0.0.1 (the server binds both)."""
-    for _ in range(50):
-        with socket.socket() as a:
-            a.bind(("127.0.0.1", 0))
-            port = a.getsockname()[1]
-            if port >= 65535:
-                continue
-            with socket.socket() as b:
-                try:
-                    b.bind(("127.0.0.1", port + 1))
-                except OSError:
-                    continue
-        return port
-    raise RuntimeError("no two free consecutive ports")
 
 
 class ServerError(Exception):

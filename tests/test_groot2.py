@@ -17,12 +17,13 @@ from pathlib import Path
 
 import msgpack
 import pytest
-from groot2_client import Client, ServerError, free_port_pair
+from groot2_client import Client, ServerError
 from py_trees.blackboard import Blackboard
 from py_trees.common import Status
 
 from assembly.cli import main, parser
 from assembly.cli.run import run_options
+from assembly.interop.groot2 import free_port_pair
 from assembly.language.build import build
 from assembly.language.reader import load_tree
 from assembly.run.options import RunOptions

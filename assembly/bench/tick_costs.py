@@ -22,7 +22,6 @@ from __future__ import annotations
 import dataclasses
 import importlib
 import shutil
-import socket
 import statistics
 import time
 from collections import defaultdict
@@ -35,6 +34,7 @@ from typing import Any
 from assembly.bench import write_csv
 from assembly.bench.sim_options import option, option_cell
 from assembly.bench.tick_timing import TREE, AssemblyRun, assembly_run, timed
+from assembly.interop.groot2 import free_port_pair
 
 
 @dataclass(frozen=True)
@@ -91,21 +91,6 @@ def timed_calls(targets: tuple[str, ...]) -> Iterator[dict[str, list[float]]]:
             setattr(owner, method, original)
 
 
-def _free_port_pair() -> int:
-    """A port P with P and P + 1 free on 127.0.0.1 (the Groot2 server binds both)."""
-    for _ in range(50):
-        with socket.socket() as a:
-            a.bind(("127.0.0.1", 0))
-            port = a.getsockname()[1]
-            with socket.socket() as b:
-                try:
-                    b.bind(("127.0.0.1", port + 1))
-                except OSError:
-                    continue
-        return port
-    raise RuntimeError("no two free consecutive ports for the Groot2 monitor")
-
-
 def _cells(out_dir: Path) -> dict[tuple[str, str | None], str]:
     """(mode, off switch) -> the cell file of that run: the sim cell as it is, each option's change;
     pixel mode with the fingers in this process."""
@@ -152,7 +137,7 @@ def measure(out_dir: Path, repeats: int = 3, signals_time: float = 3600.0, pixel
         """One timed run; the own calls of `costs` recorded; its median whole tick."""
         with timed_calls(tuple(t for c in costs for t in c.calls)) as sinks:
             done = assembly_run(True, 0, cells[(mode, off)], perception=mode, max_time=limits[mode],
-                                groot2=("127.0.0.1", _free_port_pair()) if groot2 else None)
+                                groot2=("127.0.0.1", free_port_pair()) if groot2 else None)
         ticks = max(done.result.ticks, 1)
         for cost in costs:
             times = [x for t in cost.calls for x in sinks.get(t, [])]

@@ -5,6 +5,7 @@ needed only here, and loaded only when a run asks for the monitor."""
 
 from __future__ import annotations
 
+import socket
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -44,3 +45,20 @@ def start_monitor(doc: TreeDocument, nodes: dict[str, py_trees.behaviour.Behavio
     except TreeErrors as exc:
         raise Groot2Error(f"--groot2: the tree has no BT.CPP XML for Groot2: {exc}", doc.path) from None
     return Groot2Monitor(tree, nodes, now, port, host, hooks_refused)
+
+
+def free_port_pair() -> int:
+    """A port P with P and P + 1 both free on 127.0.0.1, for a monitor that binds both (tests, benches)."""
+    for _ in range(50):
+        with socket.socket() as a:
+            a.bind(("127.0.0.1", 0))
+            port = a.getsockname()[1]
+            if port >= 65535:
+                continue
+            with socket.socket() as b:
+                try:
+                    b.bind(("127.0.0.1", port + 1))
+                except OSError:
+                    continue
+        return port
+    raise RuntimeError("no two free consecutive ports on 127.0.0.1")
