@@ -99,5 +99,6 @@ def _demo_tree(demo: str, tmp_path: Path) -> str:
 def test_skill_demo_succeeds_on_the_emulated_cell(emulated_cell, tmp_path, demo):
     path, ur, _ = emulated_cell
     summary = run_tree(_demo_tree(demo, tmp_path), RunOptions(cell=str(path), runs_dir=tmp_path, plots=False, quiet=True))
-    assert summary.status == "SUCCESS", summary.message
+    shortfalls = summary.truth.shortfalls if summary.truth is not None else []
+    assert summary.status == "SUCCESS", f"{summary.message}: {shortfalls} {summary.metrics}"
     assert summary.arm_fault is None and not ur.state()["protective_stopped"]
