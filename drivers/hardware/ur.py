@@ -172,8 +172,14 @@ class UrArm:
 
     def speed_linear(self, twist: np.ndarray) -> None:
         v = _vec(twist)
-        self._command("speedL", "speed" if any(v) else "idle", self._control.speedL, v,
-                      self.config.acceleration, 0.0)
+        if not any(v) and self._mode == "speed":
+            # A zero speedL is streamed like any twist: the next kick rewrites the command register
+            # before the controller may have read it, and the arm would go on at the old twist.
+            # speedStop waits for the controller, at the deceleration the braking distance declares.
+            self._command("speedStop", "idle", self._control.speedStop, self.config.acceleration)
+        else:
+            self._command("speedL", "speed" if any(v) else "idle", self._control.speedL, v,
+                          self.config.acceleration, 0.0)
         self._twist = v if any(v) else None
 
     def braking_distance(self, speed: float) -> float:

@@ -97,6 +97,22 @@ def test_speed_command_then_stop_leaves_the_arm_at_rest(arm, ur):
     assert arm.fault() is None
 
 
+def test_a_zero_twist_stops_the_arm_even_when_a_kick_follows_at_once(arm, ur):
+    """A zero twist then a kick within the same controller cycle (the safety layer holding a twist
+    at the box while the tree ticks). Before: the zero speedL was streamed and the kick rewrote the
+    command register before the controller read it; the arm went on at the old twist (CI: 100 mm
+    under the box floor, until the watchdog stopped it 10 s later)."""
+    arm.speed_linear(np.array([0, 0, -0.01, 0, 0, 0]))
+    assert ticking(arm, lambda: abs(ur.state()["velocity"][2] + 0.01) < 1e-9, DEADLINE)
+    for _ in range(5):
+        arm.speed_linear(np.zeros(6))
+        arm.kick_watchdog()
+        assert ur.state()["velocity"] == [0.0] * 6
+        arm.speed_linear(np.array([0, 0, -0.01, 0, 0, 0]))
+    arm.stop()
+    assert arm.fault() is None
+
+
 def test_servo_streaming_for_one_second_arrives_and_is_tracked(arm, ur):
     assert arm.control_rate == 500.0  # e-Series emulator
     before = ur.state()["servo_updates"]
