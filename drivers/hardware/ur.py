@@ -163,7 +163,8 @@ class UrArm:
                 return self._poll_contact()
             if self._mode == "move" and self._control.getAsyncOperationProgress() < 0:
                 self._mode = "idle"
-        return self._mode != "idle" or float(np.linalg.norm(self._snapshot["speed"][:3])) > 1e-3
+        braking = self._mode == "speed" and not any(self._twist or ())  # a zero twist streamed
+        return (self._mode != "idle" and not braking) or float(np.linalg.norm(self._snapshot["speed"][:3])) > 1e-3
 
     # --- commands -----------------------------------------------------------------------------------
     def move_linear(self, pose: np.ndarray, speed: float) -> None:
@@ -172,15 +173,14 @@ class UrArm:
 
     def speed_linear(self, twist: np.ndarray) -> None:
         v = _vec(twist)
-        if not any(v) and self._mode == "speed":
-            # A zero speedL is streamed like any twist: the next kick rewrites the command register
-            # before the controller may have read it, and the arm would go on at the old twist.
-            # speedStop waits for the controller, at the deceleration the braking distance declares.
-            self._command("speedStop", "idle", self._control.speedStop, self.config.acceleration)
-        else:
-            self._command("speedL", "speed" if any(v) else "idle", self._control.speedL, v,
-                          self.config.acceleration, 0.0)
-        self._twist = v if any(v) else None
+        # A zero twist after a twist stays a streamed speedL, sent again with every kick as any held
+        # twist is: a bare kick rewrites the command register, and a zero speedL the controller had
+        # not read yet was lost (the arm went on at the old twist until the watchdog). Not speedStop:
+        # it blocks until the arm has braked, ticks long on a real controller.
+        streaming = any(v) or self._mode == "speed"
+        self._command("speedL", "speed" if streaming else "idle", self._control.speedL, v,
+                      self.config.acceleration, 0.0)
+        self._twist = v if streaming else None
 
     def braking_distance(self, speed: float) -> float:
         """Metres the TCP travels while a twist of `speed` m/s is ramped to rest at the twist

@@ -99,17 +99,19 @@ def test_speed_command_then_stop_leaves_the_arm_at_rest(arm, ur):
 
 def test_a_zero_twist_stops_the_arm_even_when_a_kick_follows_at_once(arm, ur):
     """A zero twist then a kick within the same controller cycle (the safety layer holding a twist
-    at the box while the tree ticks). Before: the zero speedL was streamed and the kick rewrote the
-    command register before the controller read it; the arm went on at the old twist (CI: 100 mm
-    under the box floor, until the watchdog stopped it 10 s later)."""
-    arm.speed_linear(np.array([0, 0, -0.01, 0, 0, 0]))
-    assert ticking(arm, lambda: abs(ur.state()["velocity"][2] + 0.01) < 1e-9, DEADLINE)
-    for _ in range(5):
+    at the box while the tree ticks). Before: the zero speedL was streamed once and the kick rewrote
+    the command register before the controller read it; the arm went on at the old twist (CI: 100 mm
+    under the box floor, until the watchdog stopped it 10 s later). Braking at 0.5 m/s^2 from
+    10 mm/s takes 20 ms; 5 s leaves room for a loaded machine."""
+    for _ in range(3):
+        arm.speed_linear(np.array([0, 0, -0.01, 0, 0, 0]))
+        assert ticking(arm, lambda: abs(ur.state()["velocity"][2] + 0.01) < 1e-9, DEADLINE)
         arm.speed_linear(np.zeros(6))
         arm.kick_watchdog()
-        assert ur.state()["velocity"] == [0.0] * 6
-        arm.speed_linear(np.array([0, 0, -0.01, 0, 0, 0]))
-    arm.stop()
+        z = ur.state()["pose"][2]
+        assert ticking(arm, lambda: ur.state()["velocity"] == [0.0] * 6, 5.0)
+        assert ticking(arm, lambda: not arm.is_moving(), 5.0)
+        assert abs(ur.state()["pose"][2] - z) < 0.001  # braked within a millimetre
     assert arm.fault() is None
 
 
