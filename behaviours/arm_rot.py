@@ -8,8 +8,9 @@ hanging by the turn of that second (12.8 deg on a 0.92 s skin in pixel mode). On
 stayed below `eps` for `settle` ticks the wrist therefore stands still and watches the reading
 settle (`skill_kit.settle`: what is still to come, extrapolated from a `settle_window` window of
 readings, measured on the spot; no time constant is read from the sensor profile). It ends when
-the settled torque (the window's newest third plus what is still to come) is below `eps`, and turns
-on as soon as the reading, or the torque it is settling towards, reaches `eps`; the turns after a
+the settled torque (the mean of the window's newest third plus what is still to come) is below `eps`,
+and turns on as soon as that mean, or the torque it is settling towards, reaches `eps` (a mean: on a
+noisy skin single readings cross eps at rest); the turns after a
 stand start from rest at a small torque, so the lag carries them past hanging by little."""
 
 from __future__ import annotations
@@ -96,8 +97,8 @@ class ArmRot(ProgramSkill):
 class Stand:
     """The torque a standing wrist will settle at, watched tick by tick: `update` returns the settled
     torque once the relaxation still to come is within eps / 2 (`Settling`), NaN while it cannot
-    tell yet, and None as soon as the reading, or the torque it is visibly settling towards,
-    reaches `eps` (turn on)."""
+    tell yet, and None as soon as the mean of the newest third of the window, or the torque it is
+    visibly settling towards, reaches `eps` (turn on)."""
 
     def __init__(self, window: int, eps: float, period: float):
         self.eps = eps
@@ -106,13 +107,16 @@ class Stand:
 
     def update(self, torque: float) -> float | None:
         self._recent.append(torque)
-        if abs(torque) >= self.eps:
-            return None
         settled = self._settling.update(torque)
+        if len(self._recent) < (self._recent.maxlen or 0):
+            return math.nan
+        recent = float(np.mean(self._recent))  # a mean: one noisy reading over eps is no torque
+        if abs(recent) >= self.eps:
+            return None
         last = self._settling.last
         if last is None or not np.all(np.isfinite(last.remaining)):
             return math.nan
-        coming = float(np.mean(self._recent)) + float(last.remaining[0])
+        coming = recent + float(last.remaining[0])
         if abs(coming) >= self.eps:
             return None
         return coming if settled else math.nan
