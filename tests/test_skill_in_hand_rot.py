@@ -181,13 +181,24 @@ def test_slip_variant_opens_further_when_a_firm_grip_holds_the_bar_still():
 def test_widening_grows_only_while_the_turn_is_too_slow_at_an_opening_no_longer_growing():
     from behaviours.in_hand_rot import Widening
 
-    w = Widening(0.006, 0.012, 1.0)
-    assert w.update(0.0, 0.0, 0.5, 3.0) == 0.5  # the window starts
-    assert w.update(1.0, 0.0, 0.9, 3.0) == 0.9 and w.span == 0.006  # the opening still grew (0.4): wait
-    assert w.update(1.5, 0.5, 0.92, 3.0) == 0.92 and w.span == 0.006  # mid-window
-    share = w.update(2.0, 0.5, 0.92, 3.0)  # grew 0.02, turned 0.5 deg of the 3 needed: 3 mm more
+    w = Widening(0.006, 0.012, 1.0)  # the object has turned 4 deg already (one window needs 3)
+    assert w.update(0.0, 4.0, 0.5, 3.0) == 0.5  # the window starts
+    assert w.update(1.0, 4.0, 0.9, 3.0) == 0.9 and w.span == 0.006  # the opening still grew (0.4): wait
+    assert w.update(1.5, 4.5, 0.92, 3.0) == 0.92 and w.span == 0.006  # mid-window
+    share = w.update(2.0, 4.5, 0.92, 3.0)  # grew 0.02, turned 0.5 deg of the 3 needed: 3 mm more
     assert w.span == pytest.approx(0.009) and share * w.span == pytest.approx(0.92 * 0.006)  # no jump
-    assert w.update(3.0, 4.0, share, 3.0) == share and w.span == pytest.approx(0.009)  # 3.5 deg/s: fast enough
+    assert w.update(3.0, 8.0, share, 3.0) == share and w.span == pytest.approx(0.009)  # 3.5 deg/s: fast enough
     for t in (4.0, 5.0, 6.0, 7.0):
-        share = w.update(t, 4.0, share, 3.0)
+        share = w.update(t, 8.0, share, 3.0)
     assert w.span == pytest.approx(0.012)  # never past max_opening
+
+
+def test_widening_does_not_wait_for_a_growing_opening_while_the_object_has_not_begun_to_turn():
+    # A firm grip (a slow skin's grasp at the force limit) holds the bar still while the slow
+    # integrator creeps towards its span: pixel seed 1 spent 6 of its 20 s so, and ended 50 of 60 deg.
+    from behaviours.in_hand_rot import Widening
+
+    w = Widening(0.006, 0.012, 1.0)
+    assert w.update(0.0, 0.0, 0.2, 3.0) == 0.2
+    share = w.update(1.0, 0.5, 0.45, 3.0)  # grew 0.25 but turned 0.5 deg in all: 3 mm more, no jump
+    assert w.span == pytest.approx(0.009) and share * w.span == pytest.approx(0.45 * 0.006)

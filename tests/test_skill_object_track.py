@@ -4,6 +4,8 @@ axis."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -77,7 +79,7 @@ def pads(left_normal: float, right_normal: float, left_area: float = 0.3) -> dic
 
 def test_object_track_fails_when_a_closing_axis_push_goes_unseen():
     """A 12 N push on the pads with the seen area inside its dead band: vision cannot see that axis."""
-    h = one_skill("{duration: 3.0, unseen_force: 8.0, unseen_time: 0.5, reference_ticks: 3}")
+    h = one_skill("{duration: 3.0, closing_force: false, unseen_force: 8.0, unseen_time: 0.5, reference_ticks: 3}")
     h.script(lambda tick, t: pads(10.0, 10.0) if tick < 5 else pads(4.0, 16.0))
     assert h.run_until_done(200).name == "FAILURE"
     assert "vision cannot follow the axis perpendicular to the skin" in h.feedback("s")
@@ -85,13 +87,27 @@ def test_object_track_fails_when_a_closing_axis_push_goes_unseen():
     assert not h.arm.is_moving()
 
 
-@pytest.mark.parametrize("params, left_area", [("{duration: 1.0, reference_ticks: 3}", 0.2),  # seen: the rule acts
-                                               ("{duration: 1.0, axes: xz, reference_ticks: 3}", 0.3),  # y not followed
-                                               ("{duration: 1.0, unseen_force: 0, reference_ticks: 3}", 0.3)])  # check off
+@pytest.mark.parametrize("params, left_area", [("{duration: 1.0, closing_force: false, reference_ticks: 3}", 0.2),  # seen
+                                               ("{duration: 1.0, axes: xz, closing_force: false, reference_ticks: 3}",
+                                                0.3),  # y not followed
+                                               ("{duration: 1.0, closing_force: false, unseen_force: 0, reference_ticks: 3}",
+                                                0.3),  # check off
+                                               ("{duration: 1.0, reference_ticks: 3}", 0.3)])  # followed by the push
 def test_an_unseen_push_is_no_failure_when_seen_or_not_followed(params, left_area):
     h = one_skill(params)
     h.script(lambda tick, t: pads(10.0, 10.0) if tick < 5 else pads(4.0, 16.0, left_area))
     assert h.run_until_done(200).name == "SUCCESS"
+
+
+def test_object_track_follows_a_push_the_area_does_not_show_by_the_pads_loads():
+    """Area inside its dead band, the pads' loads 12 N apart: closing_force steps Delta along the push
+    (right pad loaded: +y); a difference inside the measured noise and min_push moves nothing."""
+    rng = np.random.default_rng(0)
+    h = one_skill("{duration: 1.0, reference_ticks: 10}")
+    h.script(lambda tick, t: pads(*(10.0 + rng.normal(0.0, 0.05, 2))) if tick < 15 else pads(4.0, 16.0))
+    assert h.run_until_done(100).name == "SUCCESS"
+    tool_y = -np.array([c.args[0][1] for c in h.arm.commands_named("speed_linear")])  # tool y = base -y
+    assert np.allclose(tool_y[:4], 0.0) and np.allclose(tool_y[-10:], 0.0015 * 30)
 
 
 def test_followme_shows_a_closing_axis_push_as_the_gel_brings_the_block_nearer():
@@ -112,11 +128,15 @@ def test_followme_shows_a_closing_axis_push_as_the_gel_brings_the_block_nearer()
         cell.close()
 
 
-def followme(axis: str, direction: str = "pull", status: str = "SUCCESS", pad_stiffness: float | None = None) -> dict:
+def followme(axis: str, direction: str = "pull", status: str = "SUCCESS", pad_stiffness: float | None = None,
+             vision_only: bool = False) -> dict:
     cell = load_cell("sim", 30, "followme", {"axis": axis, "direction": direction})
     if pad_stiffness is not None:
         cell.world.pad_stiffness = pad_stiffness
-    h = TreeHarness.from_file("trees/object_track.yaml", cell=cell)
+    text = Path("trees/object_track.yaml").read_text()
+    if vision_only:
+        text = text.replace("duration: 8.0}", "duration: 8.0, closing_force: false}")
+    h = TreeHarness.from_text(text, cell=cell)
     assert h.run_until_done(1000).name == status
     return {**cell.world.metrics(), "feedback": h.feedback("follow_me/follow")}
 
@@ -130,9 +150,15 @@ def test_object_track_follows_along_the_pads_and_the_closing_axis(direction):
 
 
 def test_object_track_fails_on_the_closing_axis_when_the_gel_does_not_show_the_push():
-    """A gel 8x stiffer than the simulated gripper's: the area changes too little; the skill says so."""
-    closing = followme("y", "pull", "FAILURE", pad_stiffness=40000.0)
+    """A gel 8x stiffer than the simulated gripper's: the area changes too little; vision alone says so."""
+    closing = followme("y", "pull", "FAILURE", pad_stiffness=40000.0, vision_only=True)
     assert "vision cannot follow the axis perpendicular to the skin" in closing["feedback"]
+
+
+def test_object_track_follows_the_closing_axis_on_a_stiff_gel_by_the_pads_loads():
+    """The same gel with closing_force (the default): the markers show what the area does not."""
+    closing = followme("y", "pull", pad_stiffness=40000.0)
+    assert closing["tracking error rms (mm)"] < 25.0 and closing["tracking error final (mm)"] < 10.0
 
 
 def test_object_track_fails_when_the_camera_cannot_tell_the_object_from_its_background():
