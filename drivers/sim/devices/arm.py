@@ -126,7 +126,7 @@ class KinematicArm:
         pose = self._pose.tolist()  # the sub-steps move its position, written back once at the end
         self._start_rotation = None  # the pose turns at the end of the step: its matrix is made once a step
         while end - t > 1e-12:
-            due = self._apply_due(t)
+            due = self._apply_due(t) if self._pending else math.inf  # as `_apply_due` says with none in flight
             h = min(end, due) - t
             h = self._advance(h, pose, turn)
             t += h
