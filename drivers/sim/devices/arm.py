@@ -136,7 +136,7 @@ class KinematicArm:
         if self._target is not None and self._turned:
             self._pose[3:] = self._target[3:]  # exactly: rotation vectors near pi carry 1e-5 of rounding
         elif any(turn):
-            self._pose[3:] = matrix_to_rotvec(rotvec_to_matrix(turn) @ rotvec_to_matrix(self._pose[3:]))
+            self._pose[3:] = matrix_to_rotvec(rotvec_to_matrix(turn).dot(rotvec_to_matrix(self._pose[3:])))
         if self._target is not None and self._turned and not any(self._v) and pose[:3] == self._goal[:3]:
             self._target = None
         self._velocity = self._v + self._w
@@ -204,8 +204,9 @@ class KinematicArm:
             return list(ZERO), 0.0
         if self._start_rotation is None:
             self._start_rotation = rotvec_to_matrix(pose[3:6])
-        cur = rotvec_to_matrix(turn) @ self._start_rotation if any(turn) else self._start_rotation
-        err = matrix_to_rotvec(self._goal_rotation @ cur.T).tolist()
+        # `dot` is numpy's `@` on 3x3 matrices (the same BLAS product, the same bits) at half the cost a call
+        cur = rotvec_to_matrix(turn).dot(self._start_rotation) if any(turn) else self._start_rotation
+        err = matrix_to_rotvec(self._goal_rotation.dot(cur.T)).tolist()
         angle = math.hypot(*err)
         if angle < 1e-9:
             return list(ZERO), 0.0
