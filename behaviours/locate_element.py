@@ -9,7 +9,7 @@ from py_trees.common import Status
 
 from behaviours.skill_kit import keys
 from behaviours.skill_kit.base import Param, ProgramSkill
-from behaviours.skill_kit.geometry import rotation, top_down_grasp, translated
+from behaviours.skill_kit.geometry import rotation, top_down_grasp, translated, warm_up
 from behaviours.skill_kit.registry import register
 
 
@@ -28,6 +28,10 @@ class LocateElement(ProgramSkill):
              keys.GRIPPER_FAULT, keys.GRIPPER_MOVING)
     NEEDS = ("elements",)
     WRITES = (keys.ELEMENT_POSE,)
+
+    def setup(self, **kwargs) -> None:
+        super().setup(**kwargs)
+        warm_up()  # scipy's rotations loaded before the run, not on the tick that first turns the pick pose
 
     def program(self):
         element = self.read(keys.ELEMENT)

@@ -83,8 +83,10 @@ def test_the_error_models_marker_step_is_the_numpy_one():
     terms = wrench.wrench_terms(markers, "right")
     for alpha in (1.0, 0.4):
         step = estimate.copy()
-        position, size, moved, force, torque = sensor_kernels.observe(exact, prev, step, tracked, noise, alpha,
-                                                                       markers.origin, terms)
+        position, size, out = np.full((37, 2), np.nan), np.full(37, np.nan), np.full(6, np.nan)
+        moved = sensor_kernels.observe(exact, prev, step, tracked, noise, alpha, markers.origin, terms, position, size,
+                                       out)
+        force, torque = out[:3], out[3:]
         kept = np.where(tracked[:, None], estimate + alpha * (exact - estimate) if alpha < 1.0 else exact, estimate)
         assert np.array_equal(step, kept)
         assert np.array_equal(position, kept[:, :2] + noise[:, :2]) and np.array_equal(size, kept[:, 2] + noise[:, 2])

@@ -105,7 +105,7 @@ class SensorModel:
 
         warm_up()  # the compiled wrench, field and error model loaded now, not on the first tick
         pipeline_error_model.warm_up()
-        marker_field(self._rest, np.zeros((5, len(self._rest))), 0.0, 0.0, 0.0, 0.0, 0.0)
+        marker_field(self._rest, np.zeros((5, len(self._rest))), 0.0, 0.0, 0.0, 0.0, 0.0, np.empty((n, 3)))
         self._marker_field = marker_field  # kept: an import statement costs ~1 us a tick
 
     def _patch(self, centre: np.ndarray | None) -> np.ndarray:
@@ -151,9 +151,10 @@ class SensorModel:
         """The marker field of `contact`'s loads: the rest field moved by the contact centre's basis."""
         basis = self._patch(contact.centre)
         shear_x, shear_y = contact.shear.tolist()
-        exact = self._marker_field(self._rest, basis, self.shear_gain * shear_x, self.shear_gain * shear_y,
-                                   self.normal_gain * contact.normal, self.torque_gain * contact.torque,
-                                   self.size_gain * max(contact.normal, 0.0))
+        exact = np.empty(self._at_rest[0].shape)
+        self._marker_field(self._rest, basis, self.shear_gain * shear_x, self.shear_gain * shear_y,
+                           self.normal_gain * contact.normal, self.torque_gain * contact.torque,
+                           self.size_gain * max(contact.normal, 0.0), exact)
         return exact, exact[:, :2], exact[:, 2]
 
     def _error_model(self) -> ErrorModel:

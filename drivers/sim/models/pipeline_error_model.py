@@ -126,9 +126,11 @@ class ErrorModel:
         self._tick += 1
         first, same = self._truth is None, exact is self._truth
         valid = self._tracked[t]
-        position, size, moved, force, torque = self._observe(
-            exact, self._truth if not (first or same) else exact, self._estimate, valid, self._noise[t],
-            self.e.lag_alpha, self._origin, self._terms)
+        n = len(exact)
+        position, size, wrench = np.empty((n, 2)), np.empty(n), np.empty(6)
+        moved = self._observe(exact, self._truth if not (first or same) else exact, self._estimate, valid,
+                              self._noise[t], self.e.lag_alpha, self._origin, self._terms, position, size, wrench)
+        force, torque = wrench[:3], wrench[3:]
         obj, slip = self._view(contact, None if first else moved, self._scalars[t], self._centroid[t])
         self._truth = exact
         return position, size, valid if self._any_lost[t] else self._all, force, torque, obj, slip
@@ -190,4 +192,5 @@ def warm_up() -> None:
 
     exact = np.zeros((1, 3))
     markers = MarkerField(np.zeros((1, 2)))
-    observe(exact, exact, exact.copy(), np.ones(1, bool), exact, 1.0, markers.origin, wrench_terms(markers, "left"))
+    observe(exact, exact, exact.copy(), np.ones(1, bool), exact, 1.0, markers.origin, wrench_terms(markers, "left"),
+            np.empty((1, 2)), np.empty(1), np.empty(6))
