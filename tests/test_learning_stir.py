@@ -12,7 +12,15 @@ from assembly.cli import main
 from drivers.sim.scenes.stir import SUBSTANCES, session_batch
 from perception.learning.dataset import Dataset
 from perception.learning.features import REST_TICKS, columns
-from perception.learning.stir import PAPER_MODEL, _signal_matrix, split, train_stir, trial_features, trials
+from perception.learning.stir import (
+    FEATURE_GROUPS,
+    PAPER_MODEL,
+    _signal_matrix,
+    split,
+    train_stir,
+    trial_features,
+    trials,
+)
 
 TREES = Path(__file__).resolve().parents[1] / "trees"
 
@@ -61,7 +69,7 @@ def test_trial_features_count_what_stirring_adds_beyond_the_rest_noise(stirred):
         assert len(rows) > REST_TICKS + 60
         noisy = rows.copy()
         noisy[:, force] += rng.normal(0.0, 0.3, (len(rows), len(force)))
-        signals = len(trial_features(rows)) // 4
+        signals = len(trial_features(rows)) // len(FEATURE_GROUPS)
         clean, measured = (trial_features(r)[signals:2 * signals] for r in (rows, noisy))
         raw = _signal_matrix(noisy)[REST_TICKS:].std(axis=0)  # the spread as it was taken before
         changed = np.abs(raw - _signal_matrix(rows)[REST_TICKS:].std(axis=0)) > 0.05

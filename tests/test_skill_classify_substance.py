@@ -14,7 +14,7 @@ GRASP = "{skill: gentle_grasp, name: grasp, params: {squeeze: 0.008, force: 60.0
 
 def test_classifies_all_three_bowls():
     """The demo as `fvtree run` runs it (seed 0); the model, trained on randomised sessions, misreads
-    the sugar of some sessions (docs/robustness.md), e.g. seed 3 of the plain cell."""
+    the sugar of a few sessions (docs/robustness.md)."""
     cell = load_cell("sim", 30, "stir", {}, seed=0)
     h = TreeHarness.from_file("trees/classify_substance.yaml", cell=cell)
     assert h.run_until_done(3000).name == "SUCCESS"  # each bowl's condition checks the label
