@@ -104,8 +104,14 @@ class FindMaxLoad(ProgramSkill):
         "regrasp_force": Param("float", "gripper force limit of a re-grasp", 80.0, "N", min=1.0, device="gripper_force"),
         "touch_eps": Param("float", "force change that means the foot touched the ground before a re-grasp",
                            0.5, "px", min=0.0),
-        "max_scan_force": Param("float", "TCP force the arm may feel while scanning before the scan stops "
-                                "(0: no check; cells without a force sensor read 0 N)", 100.0, "N", min=0.0, device="arm_force"),
+        "max_scan_force": Param("float", "push the arm may feel while scanning before the scan stops: the TCP force's "
+                                "change from its mean at rest before the scan (the element hanging, so neither the "
+                                "sensor's offset nor the element's weight counts), its median over `force_ticks` ticks "
+                                "(0: no check; cells without a force sensor read 0 N)", 100.0, "N", min=0.0,
+                                device="arm_force"),
+        "force_ticks": Param("int", "ticks over which the push's median is taken against `max_scan_force`: a plate's "
+                             "load is noisy by a few % of it, so one reading over the limit is no push over it",
+                             7, min=1),
     }
     READS = (keys.ELEMENT, keys.PLATES, keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT,
              keys.ROBOT_MOVING, keys.ROBOT_WRENCH, keys.GRIPPER_WIDTH, keys.GRIPPER_OBJECT, keys.GRIPPER_FAULT, keys.GRIPPER_MOVING)
@@ -194,7 +200,7 @@ class FindMaxLoad(ProgramSkill):
         fault = yield from self.move(pose, 0.01)
         if fault:
             return None, fault, False
-        f_ref = yield from self.mean_force(self.p.reference_ticks)
+        f_ref, push_zero = yield from self.at_rest(self.p.reference_ticks)
 
         pose[0], pose[1] = start, plate["origin"][1]
         self.feedback_message = "sliding in under the plate"
@@ -205,6 +211,7 @@ class FindMaxLoad(ProgramSkill):
         positions: list[float] = []
         loads: list[float] = []
         recent: deque[float] = deque(maxlen=self.p.slip_ticks)
+        pushes: deque[float] = deque(maxlen=self.p.force_ticks)
         slipped = [False]
         last: list[tuple[TactileState, TactileState] | None] = [None]  # the fingertips of the tick before
         held = self.gripper_object()  # the fingers were stopped on the element: losing that flag is losing it
@@ -227,10 +234,12 @@ class FindMaxLoad(ProgramSkill):
             if held and not self.gripper_object():
                 return (f"the element was lost from the grip at {positions[-1]:.3f} m along the plate (the "
                         "gripper no longer reports an object between its fingers)")
-            felt = magnitude(self.read(keys.ROBOT_WRENCH)[:3])
+            pushes.append(magnitude(np.asarray(self.read(keys.ROBOT_WRENCH)[:3], dtype=float) - push_zero))
+            felt = statistics.median(pushes)
             if 0.0 < self.p.max_scan_force < felt:
-                return (f"the arm felt {felt:.1f} N at {positions[-1]:.3f} m along the plate, over "
-                        f"max_scan_force {self.p.max_scan_force:g} N")
+                return (f"the arm felt a push of {felt:.1f} N at {positions[-1]:.3f} m along the plate (median "
+                        f"of {len(pushes)} ticks, from its reading at rest), over max_scan_force "
+                        f"{self.p.max_scan_force:g} N")
             return None
 
         # Twice the time a pass should take, and a margin for the controller to get going.
@@ -261,6 +270,17 @@ class FindMaxLoad(ProgramSkill):
             "clarity": min(p.clarity for p in found), "top_share": max(p.top_share for p in found),
             "grip_slipped": False, "passes": len(found), "lag_shift": lag_shift})
         return peak, None, False
+
+    def at_rest(self, ticks: int):
+        """(summed finger force, TCP force) averaged over the next `ticks` ticks, the element hanging
+        clear of everything: the zeros the scan's load and push are measured from (a real TCP force
+        sensor reads an offset and drifts, so the push is taken from a zero measured on the spot)."""
+        fingers, arm = np.zeros(3), np.zeros(3)
+        for _ in range(ticks):
+            yield
+            fingers += summed_force(*self.tactile())
+            arm += np.asarray(self.read(keys.ROBOT_WRENCH, np.zeros(6))[:3], dtype=float)
+        return fingers / ticks, arm / ticks
 
     def judge(self, element: dict, positions: list[float], loads: list[float], stopped: str | None,
               slipping: bool):
@@ -327,11 +347,18 @@ class FindMaxLoad(ProgramSkill):
         return Refusal(unclear, f"{FIRMER}, or lower 'min_clarity'"), True
 
     def regrasp(self, outside: np.ndarray, attempt: int):
-        """Slide back out from under the plate, set the foot on the ground so it carries the
-        element, and close the fingers further with a higher force limit; None, or why not."""
+        """Slide back out from under the plate and along it to where the first scan came in from
+        (`outside`), set the foot on the ground so it carries the element, and close the fingers
+        further with a higher force limit; None, or why not. Going back outside the plate keeps the
+        rescan's slide-in where the plate carries little, as the first one was: straight from where
+        a pass stopped, it would cut under the plate's loaded middle sideways."""
         self.feedback_message = f"re-grasp {attempt}: sliding out from under the plate"
         out = self.pose()
         out[1] = outside[1]
+        fault = yield from self.move(out, 0.05)
+        if fault:
+            return fault
+        out[0] = outside[0]
         fault = yield from self.move(out, 0.05)
         if fault:
             return fault

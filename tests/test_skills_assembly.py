@@ -517,6 +517,64 @@ def test_find_max_load_stops_the_scan_when_the_arm_feels_too_much_force(tmp_path
     assert summary.elements["E1"]["status"] == "planned"
 
 
+def pushing_plate(h, rng, push: float, offset=(6.0, 0.0, -8.0), weight: float = 4.0, noise: float = 2.0):
+    """P1 pushing the element with up to `push` N (the parabola of `scripted_plate`; the fingers feel
+    a tenth of it) with `noise` N of load noise a tick, read by an arm force sensor that also reads an
+    `offset` and the hanging element's `weight`; returns the script and the largest raw reading (N)."""
+    x0, y0 = PLATES["P1"]["origin"][0], PLATES["P1"]["origin"][1]
+    raw = [0.0]
+
+    def script(tick, t):
+        pose = h.arm.pose()
+        under = abs(pose[1] - y0) < 0.1
+        load = max(0.0, push * (1 - ((pose[0] - x0 - 0.57) / 0.35) ** 2)) if under else 0.0
+        load += rng.normal(0, noise) if under else 0.0
+        force = np.array(offset) + [0.0, 0.0, -weight - load]
+        h.cell.arm.inner.external_wrench = np.r_[force, 0.0, 0.0, 0.0]
+        raw[0] = max(raw[0], float(np.linalg.norm(force)))
+        return axial(0.1 * load)
+    return script, raw
+
+
+def test_find_max_load_takes_the_scan_force_from_its_reading_at_rest():
+    """assembly_heavy seed 12: P3 really pushes 95.5 N with ~2 N of load noise, and one reading of 100.5 N
+    stopped the scan at `max_scan_force` 100 N. The push is now the change from the force at rest (so a
+    10 N offset and the element's weight do not count) and its median over `force_ticks` ticks (so one
+    noisy reading is no push); a push really over the limit still stops the scan."""
+    h = one_skill("find_max_load", "{speed: 0.05, max_regrasps: 0}")
+    h.set("/task/element", E1)
+    h.set("/task/plates", PLATES)
+    script, raw = pushing_plate(h, np.random.default_rng(6), push=95.0)
+    h.script(script)
+    assert h.run_until_done(4000).name == "SUCCESS", h.feedback("s")
+    assert raw[0] > 105.0  # the raw readings went well over 100 N
+    assert abs(h.blackboard("/task/best_pose")[0] - PLATES["P1"]["origin"][0] - 0.57) < 0.02
+
+    over = one_skill("find_max_load", "{speed: 0.05, max_regrasps: 0}")
+    over.set("/task/element", E1)
+    over.set("/task/plates", PLATES)
+    over.script(pushing_plate(over, np.random.default_rng(6), push=110.0)[0])
+    assert over.run_until_done(4000).name == "FAILURE"
+    assert "the arm felt a push of 10" in over.feedback("s") and "over max_scan_force 100 N" in over.feedback("s")
+
+
+def test_find_max_load_rescans_sliding_in_where_the_first_scan_did():
+    """A re-grasp goes back beside the plate where the first scan came in, so the rescan slides in
+    under the lightly loaded end again; before, it cut in sideways from where the slip stopped the pass."""
+    h = find_load_on_weak_grip("{speed: 0.05, regrasp_squeeze: 0.01, regrasp_force: 80.0}")
+    x0, y0 = PLATES["P1"]["origin"][0], PLATES["P1"]["origin"][1]
+    entries, was_under = [], False
+    while h.tick().name == "RUNNING":
+        pose = h.arm.pose()
+        under = abs(pose[1] - y0) < 0.1
+        if under and not was_under:
+            entries.append(pose[0] - x0)
+        was_under = under
+        assert h.ticks < 4000
+    assert h.status("s") == "SUCCESS", h.feedback("s")
+    assert len(entries) == 2 and entries[1] == pytest.approx(entries[0], abs=0.005)
+
+
 def test_a_scan_shorter_than_the_smoothing_window_still_gives_a_peak():
     from behaviours.skill_kit.load_search import locate_peak
 
