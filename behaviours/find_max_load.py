@@ -27,7 +27,16 @@ that falls below the unloaded reference once the element has shifted (`max_below
 peak: a lagging skin shows a load late, and its creep and hysteresis leave it above the truth after
 unloading, never below, so only the grip can take the reading under it). A slow skin makes this the
 usual way to fail: its gentle grasp feels contact late and closes to the force limit, and that
-firmer grip slips too slowly for the slip rule under the heaviest plates."""
+firmer grip slips too slowly for the slip rule under the heaviest plates.
+
+The fingers' reading must also follow the load up to its top. Where the cell has a TCP force sensor,
+the arm feels the plate's push too (from a zero taken at rest before the scan, so the sensor's offset
+and the element's weight do not count), linear but blind to the grip. Each pass fits the fingers'
+response to that push on its flanks (20-60 % of the peak push); a top that falls short of it by more
+than `max_shortfall` is a saturated reading (pixel mode under a firm grip loses the most displaced
+markers, and the fingers' load went flat from 45 to 81 N), so the passes' peaks are located on the
+arm's push instead (the profile's `measured_by`). The same push, as a median over `force_ticks`,
+stops the scan beyond `max_scan_force`."""
 
 from __future__ import annotations
 
@@ -42,7 +51,7 @@ from py_trees.common import Status
 from behaviours.skill_kit import hand, keys
 from behaviours.skill_kit.base import Param, ProgramSkill, magnitude, summed_force
 from behaviours.skill_kit.hand import slip_beyond_marker_flow
-from behaviours.skill_kit.load_search import locate_peak
+from behaviours.skill_kit.load_search import locate_peak, moving_average
 from behaviours.skill_kit.registry import register
 from behaviours.skill_kit.sensor import sensor_profile
 from behaviours.skill_kit.transit import plate_of
@@ -99,6 +108,14 @@ class FindMaxLoad(ProgramSkill):
                            "pushes, and a lagging skin shows a load late but never below what it carries (intact "
                            "grips on 0.3-0.9 s skins dipped at most 1 % of the peak, shifted ones 14-48 %)", 0.1,
                            min=0.0),
+        "max_shortfall": Param("float", "share by which the fingers' load at the top of a pass may fall short of what "
+                               "their gain on the pass's flanks (fingers against the arm's push, 20-60 % of its peak) "
+                               "gives for the arm's peak push: more means the fingers' reading saturated (the pixel "
+                               "pipeline's under a heavy load), the top of their profile is flat and its maximum "
+                               "is noise, so the peaks are taken from the arm's push profile (needs a force sensor; "
+                               "a skin's creep and lag leave the fingers at most ~20 % short)", 0.3, min=0.0, max=1.0),
+        "min_push": Param("float", "least peak of the arm's push profile for the fingers' saturation check (a cell "
+                          "without a force sensor reads 0 N: no check)", 10.0, "N", min=0.0),
         "max_regrasps": Param("int", "firmer re-grasps and rescans before giving up", 1, min=0, max=5),
         "regrasp_squeeze": Param("float", "further closing at each re-grasp", 0.01, "m", min=0.0005, max=0.03),
         "regrasp_force": Param("float", "gripper force limit of a re-grasp", 80.0, "N", min=1.0, device="gripper_force"),
@@ -212,6 +229,7 @@ class FindMaxLoad(ProgramSkill):
         loads: list[float] = []
         recent: deque[float] = deque(maxlen=self.p.slip_ticks)
         pushes: deque[float] = deque(maxlen=self.p.force_ticks)
+        arm_loads: list[float] = []  # the arm's push down the element's axis (N), sampled with `loads`
         slipped = [False]
         last: list[tuple[TactileState, TactileState] | None] = [None]  # the fingertips of the tick before
         held = self.gripper_object()  # the fingers were stopped on the element: losing that flag is losing it
@@ -220,9 +238,11 @@ class FindMaxLoad(ProgramSkill):
 
         def sample() -> str | None:
             left, right = self.tactile()
-            # The plate pushes the upright element down its axis (image x of both fingers).
+            # The plate pushes the upright element down its axis (image x of both fingers; -z of the base).
             positions.append(self.pose()[0] - x0)
             loads.append(-(left.force[0] + right.force[0] - f_ref[0]))
+            push = np.asarray(self.read(keys.ROBOT_WRENCH)[:3], dtype=float) - push_zero
+            arm_loads.append(-float(push[2]))
             before = last[0] or (left, right)
             last[0] = (left, right)
             recent.append(slip_beyond_marker_flow(left, before[0], *self._flow)
@@ -234,7 +254,7 @@ class FindMaxLoad(ProgramSkill):
             if held and not self.gripper_object():
                 return (f"the element was lost from the grip at {positions[-1]:.3f} m along the plate (the "
                         "gripper no longer reports an object between its fingers)")
-            pushes.append(magnitude(np.asarray(self.read(keys.ROBOT_WRENCH)[:3], dtype=float) - push_zero))
+            pushes.append(magnitude(push))
             felt = statistics.median(pushes)
             if 0.0 < self.p.max_scan_force < felt:
                 return (f"the arm felt a push of {felt:.1f} N at {positions[-1]:.3f} m along the plate (median "
@@ -247,6 +267,7 @@ class FindMaxLoad(ProgramSkill):
         passes = [(start, end), (end, start)] if self.p.both_ways else [(start, end)]
         found: list = []
         smoothed: list[np.ndarray] = []  # each pass's smoothed load, in the order it was sampled
+        stretches: list[slice] = []
         for a, b in passes:
             first = len(positions)
             if a != start:
@@ -257,6 +278,14 @@ class FindMaxLoad(ProgramSkill):
                 return peak, problem, firmer_helps
             found.append(peak)
             smoothed.append(in_sampled_order(positions[first:], peak.smoothed))
+            stretches.append(slice(first, len(positions)))
+        shortfall = max(self.shortfall(positions[s], peak, arm_loads[s]) for s, peak in zip(stretches, found))
+        measured_by = "fingers"
+        if shortfall > self.p.max_shortfall:  # the fingers' top is flat: the arm's push locates the peaks
+            measured_by = "arm"
+            found = [dataclasses.replace(peak, position=locate_peak(positions[s], arm_loads[s], self.p.smoothing,
+                                                                    self.p.fit_half_width).position)
+                     for s, peak in zip(stretches, found)]
         if len(found) == 2:  # the skin's lag shifts each pass's peak along its way: the mean cancels it
             forward, back = found
             peak = dataclasses.replace(forward, position=0.5 * (forward.position + back.position),
@@ -268,8 +297,30 @@ class FindMaxLoad(ProgramSkill):
             "plate": element["plate"], "position": np.array(positions), "load": np.array(loads),
             "smoothed": np.concatenate(smoothed), "best_position": peak.position, "best_load": peak.load,
             "clarity": min(p.clarity for p in found), "top_share": max(p.top_share for p in found),
-            "grip_slipped": False, "passes": len(found), "lag_shift": lag_shift})
+            "grip_slipped": False, "passes": len(found), "lag_shift": lag_shift,
+            "arm_load": np.array(arm_loads), "shortfall": shortfall, "measured_by": measured_by})
         return peak, None, False
+
+    def shortfall(self, positions: list[float], peak, arm_loads: list[float]) -> float:
+        """Share by which one pass's finger load falls short at its top of what the fingers' response
+        measured on the pass's flanks gives for the arm's peak push: a straight line (finger load
+        against the arm's push) fitted where the arm feels 20-60 % of its peak (an offset as well as a
+        gain: a lagging, creeping skin reads late and stays above zero after unloading, on each flank
+        the other way) and taken to the arm's peak. About 0 (or below) for fingers that read the load
+        in proportion, large for a saturated reading; 0 when the arm felt less than `min_push` (no
+        force sensor, or too light a plate to tell)."""
+        order = np.argsort(np.asarray(positions, dtype=float))
+        span = float(positions[order[-1]] - positions[order[0]])
+        arm = moving_average(np.asarray(arm_loads, dtype=float)[order],
+                             max(1, round(self.p.smoothing * (len(order) - 1) / max(span, 1e-9))))
+        top = float(arm.max())
+        flanks = (arm > 0.2 * top) & (arm < 0.6 * top)
+        if top < self.p.min_push or flanks.sum() < 5 or np.ptp(arm[flanks]) < 0.2 * top:
+            return 0.0
+        gain, offset = np.polyfit(arm[flanks], peak.smoothed[flanks], 1)
+        if gain <= 0.0:
+            return 0.0
+        return max(0.0, 1.0 - (float(peak.smoothed.max()) - offset) / (gain * top))
 
     def at_rest(self, ticks: int):
         """(summed finger force, TCP force) averaged over the next `ticks` ticks, the element hanging
