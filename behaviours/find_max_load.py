@@ -115,8 +115,9 @@ class FindMaxLoad(ProgramSkill):
                                "is noise, so the peaks are taken from the arm's push profile (needs a force sensor; "
                                "fingers reading in proportion on 0.03-1 s skins fell short by at most 2 %, "
                                "pixel mode's saturated ones by 23-29 %)", 0.15, min=0.0, max=1.0),
-        "min_push": Param("float", "least peak of the arm's push profile for the fingers' saturation check (a cell "
-                          "without a force sensor reads 0 N: no check)", 10.0, "N", min=0.0),
+        "min_push": Param("float", "least peak of the arm's push profile for the checks made on it (the fingers' "
+                          "saturation, rule 'max_below' on the push; a cell without a force sensor reads 0 N: "
+                          "no check)", 10.0, "N", min=0.0),
         "max_regrasps": Param("int", "firmer re-grasps and rescans before giving up", 1, min=0, max=5),
         "regrasp_squeeze": Param("float", "further closing at each re-grasp", 0.01, "m", min=0.0005, max=0.03),
         "regrasp_force": Param("float", "gripper force limit of a re-grasp", 80.0, "N", min=1.0, device="gripper_force"),
@@ -274,7 +275,8 @@ class FindMaxLoad(ProgramSkill):
             if a != start:
                 self.feedback_message = "scanning back"
             stopped = yield from self.move(np.r_[b, pose[1:]], self.p.speed, timeout, watch=sample)
-            peak, problem, firmer_helps = self.judge(element, positions[first:], loads[first:], stopped, slipped[0])
+            peak, problem, firmer_helps = self.judge(element, positions[first:], loads[first:], stopped, slipped[0],
+                                                     arm_loads[first:])
             if problem:
                 return peak, problem, firmer_helps
             found.append(peak)
@@ -310,18 +312,26 @@ class FindMaxLoad(ProgramSkill):
         the other way) and taken to the arm's peak. About 0 (or below) for fingers that read the load
         in proportion, large for a saturated reading; 0 when the arm felt less than `min_push` (no
         force sensor, or too light a plate to tell)."""
-        order = np.argsort(np.asarray(positions, dtype=float))
-        span = float(positions[order[-1]] - positions[order[0]])
-        arm = moving_average(np.asarray(arm_loads, dtype=float)[order],
-                             max(1, round(self.p.smoothing * (len(order) - 1) / max(span, 1e-9))))
+        arm = self.smoothed_push(positions, arm_loads)
+        if arm is None:
+            return 0.0
         top = float(arm.max())
         flanks = (arm > 0.2 * top) & (arm < 0.6 * top)
-        if top < self.p.min_push or flanks.sum() < 5 or np.ptp(arm[flanks]) < 0.2 * top:
+        if flanks.sum() < 5 or np.ptp(arm[flanks]) < 0.2 * top:
             return 0.0
         gain, offset = np.polyfit(arm[flanks], peak.smoothed[flanks], 1)
         if gain <= 0.0:
             return 0.0
         return max(0.0, 1.0 - (float(peak.smoothed.max()) - offset) / (gain * top))
+
+    def smoothed_push(self, positions: list[float], arm_loads: list[float]) -> np.ndarray | None:
+        """The arm's push along one pass in ascending position order, smoothed as the fingers' load is
+        (`smoothing`); None when it peaks below `min_push` (no force sensor, or too light a plate)."""
+        order = np.argsort(np.asarray(positions, dtype=float))
+        span = float(positions[order[-1]] - positions[order[0]])
+        arm = moving_average(np.asarray(arm_loads, dtype=float)[order],
+                             max(1, round(self.p.smoothing * (len(order) - 1) / max(span, 1e-9))))
+        return arm if float(arm.max()) >= self.p.min_push else None
 
     def at_rest(self, ticks: int):
         """(summed finger force, TCP force) averaged over the next `ticks` ticks, the element hanging
@@ -335,13 +345,13 @@ class FindMaxLoad(ProgramSkill):
         return fingers / ticks, arm / ticks
 
     def judge(self, element: dict, positions: list[float], loads: list[float], stopped: str | None,
-              slipping: bool):
+              slipping: bool, arm_loads: list[float]):
         """One pass's (peak, problem, whether a firmer grip could help), problem None for a trusted
         peak; a pass with a problem writes its load profile (a trusted one is written with the scan's)."""
         if stopped and not slipping or len(positions) < 5:
             return None, stopped or "the scan ended at once", slipping
         peak = locate_peak(positions, loads, self.p.smoothing, self.p.fit_half_width)
-        verdict = self.verdict(peak, stopped, slipping)
+        verdict = self.verdict(peak, stopped, slipping, self.smoothed_push(positions, arm_loads))
         if verdict[1] is not None:
             self.write(keys.LOAD_PROFILE, {
                 "plate": element["plate"], "position": np.array(positions), "load": np.array(loads),
@@ -350,15 +360,21 @@ class FindMaxLoad(ProgramSkill):
                 "grip_slipped": verdict[3]})
         return verdict[:3]
 
-    def verdict(self, peak, stopped: str | None, slipping: bool):
+    def verdict(self, peak, stopped: str | None, slipping: bool, push: np.ndarray | None = None):
         """(peak, problem, whether a firmer grip could help, whether the grip slipped) of a located
-        peak; a problem names the rule that refused the peak and what to change."""
+        peak (and the arm's smoothed `push` profile, None without a force sensor); a problem names the
+        rule that refused the peak and what to change."""
         min_top = self.least_top_width(peak.sample_position / self._span)
         sharp = not slipping and peak.clarity >= self.p.min_clarity and peak.top_share < min_top
         # A plate only pushes, and a lagging skin only shows a load late (creep and hysteresis leave it
         # above the truth after unloading, never below): a profile that falls below its unloaded
         # reference by more than `max_below` of its peak measured a grip that shifted under the load.
         drifted = not slipping and float(peak.smoothed.min()) < -self.p.max_below * abs(peak.load)
+        # The same holds for the arm's push, which has no lag: pulled up below its zero at rest, the
+        # element stands on the ground, slid down in the grip (pixel mode may barely show it in the fingers).
+        grounded = (not slipping and not drifted and push is not None
+                    and float(push.min()) < -self.p.max_below * float(push.max()))
+        drifted = drifted or grounded
         slipped = slipping or sharp or drifted
         if slipping:
             return peak, Refusal(f"{stopped} (rule 'slip')", FIRMER), True, slipped
@@ -373,6 +389,11 @@ class FindMaxLoad(ProgramSkill):
                                  f"load peaked there more sharply than a plate can (rule 'min_top_width': top "
                                  f"{peak.top_share:.0%} of the scan wide < {min_top:.1%} there)",
                                  f"{FIRMER}, or, if this plate's maximum is that sharp, lower 'min_top_width'"), True, slipped
+        if grounded and push is not None:
+            return peak, Refusal(f"the element shifted in the grip during the scan: the arm's push fell to "
+                                 f"{push.min():.1f} N, below its zero at rest by more than {self.p.max_below:g} of "
+                                 f"its peak {push.max():.1f} N, the element's foot on the ground (rule 'max_below': "
+                                 "a plate only pushes)", FIRMER), True, slipped
         if drifted:
             return peak, Refusal(f"the element shifted in the grip during the scan: the load fell to "
                                  f"{peak.smoothed.min():.2f} px, below its unloaded reference by more than "
