@@ -113,8 +113,9 @@ class FindMaxLoad(ProgramSkill):
                                "gives for the arm's peak push: more means the fingers' reading saturated (the pixel "
                                "pipeline's under a heavy load), the top of their profile is flat and its maximum "
                                "is noise, so the peaks are taken from the arm's push profile (needs a force sensor; "
-                               "fingers reading in proportion on 0.03-1 s skins fell short by at most 2 %, "
-                               "pixel mode's saturated ones by 23-29 %)", 0.15, min=0.0, max=1.0),
+                               "fingers reading in proportion on 0.03-1 s skins fell short by at most 2 % in "
+                               "signals mode, 4 % in pixel mode under light plates; pixel mode's compressed ones "
+                               "under a firm grip by 14-29 %)", 0.1, min=0.0, max=1.0),
         "min_push": Param("float", "least peak of the arm's push profile for the checks made on it (the fingers' "
                           "saturation, rule 'max_below' on the push; a cell without a force sensor reads 0 N: "
                           "no check)", 10.0, "N", min=0.0),
