@@ -27,7 +27,16 @@ that falls below the unloaded reference once the element has shifted (`max_below
 peak: a lagging skin shows a load late, and its creep and hysteresis leave it above the truth after
 unloading, never below, so only the grip can take the reading under it). A slow skin makes this the
 usual way to fail: its gentle grasp feels contact late and closes to the force limit, and that
-firmer grip slips too slowly for the slip rule under the heaviest plates."""
+firmer grip slips too slowly for the slip rule under the heaviest plates.
+
+The fingers' reading must also follow the load up to its top. Where the cell has a TCP force sensor,
+the arm feels the plate's push too (from a zero taken at rest before the scan, so the sensor's offset
+and the element's weight do not count), linear but blind to the grip. Each pass fits the fingers'
+response to that push on its flanks (20-60 % of the peak push); a top that falls short of it by more
+than `max_shortfall` is a saturated reading (pixel mode under a firm grip loses the most displaced
+markers, and the fingers' load went flat from 45 to 81 N), so the passes' peaks are located on the
+arm's push instead (the profile's `measured_by`). The same push, as a median over `force_ticks`,
+stops the scan beyond `max_scan_force`."""
 
 from __future__ import annotations
 
@@ -42,7 +51,7 @@ from py_trees.common import Status
 from behaviours.skill_kit import hand, keys
 from behaviours.skill_kit.base import Param, ProgramSkill, magnitude, summed_force
 from behaviours.skill_kit.hand import slip_beyond_marker_flow
-from behaviours.skill_kit.load_search import locate_peak
+from behaviours.skill_kit.load_search import locate_peak, moving_average
 from behaviours.skill_kit.registry import register
 from behaviours.skill_kit.sensor import sensor_profile
 from behaviours.skill_kit.transit import plate_of
@@ -99,13 +108,30 @@ class FindMaxLoad(ProgramSkill):
                            "pushes, and a lagging skin shows a load late but never below what it carries (intact "
                            "grips on 0.3-0.9 s skins dipped at most 1 % of the peak, shifted ones 14-48 %)", 0.1,
                            min=0.0),
+        "max_shortfall": Param("float", "share by which the fingers' load at the top of a pass may fall short of what "
+                               "their gain on the pass's flanks (fingers against the arm's push, 20-60 % of its peak) "
+                               "gives for the arm's peak push: more means the fingers' reading saturated (the pixel "
+                               "pipeline's under a heavy load), the top of their profile is flat and its maximum "
+                               "is noise, so the peaks are taken from the arm's push profile (needs a force sensor; "
+                               "fingers reading in proportion on 0.03-1 s skins fell short by at most 2 % in "
+                               "signals mode, 4 % in pixel mode under light plates; pixel mode's compressed ones "
+                               "under a firm grip by 14-29 %)", 0.1, min=0.0, max=1.0),
+        "min_push": Param("float", "least peak of the arm's push profile for the checks made on it (the fingers' "
+                          "saturation, rule 'max_below' on the push; a cell without a force sensor reads 0 N: "
+                          "no check)", 10.0, "N", min=0.0),
         "max_regrasps": Param("int", "firmer re-grasps and rescans before giving up", 1, min=0, max=5),
         "regrasp_squeeze": Param("float", "further closing at each re-grasp", 0.01, "m", min=0.0005, max=0.03),
         "regrasp_force": Param("float", "gripper force limit of a re-grasp", 80.0, "N", min=1.0, device="gripper_force"),
         "touch_eps": Param("float", "force change that means the foot touched the ground before a re-grasp",
                            0.5, "px", min=0.0),
-        "max_scan_force": Param("float", "TCP force the arm may feel while scanning before the scan stops "
-                                "(0: no check; cells without a force sensor read 0 N)", 100.0, "N", min=0.0, device="arm_force"),
+        "max_scan_force": Param("float", "push the arm may feel while scanning before the scan stops: the TCP force's "
+                                "change from its mean at rest before the scan (the element hanging, so neither the "
+                                "sensor's offset nor the element's weight counts), its median over `force_ticks` ticks "
+                                "(0: no check; cells without a force sensor read 0 N)", 100.0, "N", min=0.0,
+                                device="arm_force"),
+        "force_ticks": Param("int", "ticks over which the push's median is taken against `max_scan_force`: a plate's "
+                             "load is noisy by a few % of it, so one reading over the limit is no push over it",
+                             7, min=1),
     }
     READS = (keys.ELEMENT, keys.PLATES, keys.FV_LEFT, keys.FV_RIGHT, keys.ROBOT_POSE, keys.ROBOT_FAULT,
              keys.ROBOT_MOVING, keys.ROBOT_WRENCH, keys.GRIPPER_WIDTH, keys.GRIPPER_OBJECT, keys.GRIPPER_FAULT, keys.GRIPPER_MOVING)
@@ -194,7 +220,7 @@ class FindMaxLoad(ProgramSkill):
         fault = yield from self.move(pose, 0.01)
         if fault:
             return None, fault, False
-        f_ref = yield from self.mean_force(self.p.reference_ticks)
+        f_ref, push_zero = yield from self.at_rest(self.p.reference_ticks)
 
         pose[0], pose[1] = start, plate["origin"][1]
         self.feedback_message = "sliding in under the plate"
@@ -205,6 +231,8 @@ class FindMaxLoad(ProgramSkill):
         positions: list[float] = []
         loads: list[float] = []
         recent: deque[float] = deque(maxlen=self.p.slip_ticks)
+        pushes: deque[float] = deque(maxlen=self.p.force_ticks)
+        arm_loads: list[float] = []  # the arm's push down the element's axis (N), sampled with `loads`
         slipped = [False]
         last: list[tuple[TactileState, TactileState] | None] = [None]  # the fingertips of the tick before
         held = self.gripper_object()  # the fingers were stopped on the element: losing that flag is losing it
@@ -213,9 +241,11 @@ class FindMaxLoad(ProgramSkill):
 
         def sample() -> str | None:
             left, right = self.tactile()
-            # The plate pushes the upright element down its axis (image x of both fingers).
+            # The plate pushes the upright element down its axis (image x of both fingers; -z of the base).
             positions.append(self.pose()[0] - x0)
             loads.append(-(left.force[0] + right.force[0] - f_ref[0]))
+            push = np.asarray(self.read(keys.ROBOT_WRENCH)[:3], dtype=float) - push_zero
+            arm_loads.append(-float(push[2]))
             before = last[0] or (left, right)
             last[0] = (left, right)
             recent.append(slip_beyond_marker_flow(left, before[0], *self._flow)
@@ -227,10 +257,12 @@ class FindMaxLoad(ProgramSkill):
             if held and not self.gripper_object():
                 return (f"the element was lost from the grip at {positions[-1]:.3f} m along the plate (the "
                         "gripper no longer reports an object between its fingers)")
-            felt = magnitude(self.read(keys.ROBOT_WRENCH)[:3])
+            pushes.append(magnitude(push))
+            felt = statistics.median(pushes)
             if 0.0 < self.p.max_scan_force < felt:
-                return (f"the arm felt {felt:.1f} N at {positions[-1]:.3f} m along the plate, over "
-                        f"max_scan_force {self.p.max_scan_force:g} N")
+                return (f"the arm felt a push of {felt:.1f} N at {positions[-1]:.3f} m along the plate (median "
+                        f"of {len(pushes)} ticks, from its reading at rest), over max_scan_force "
+                        f"{self.p.max_scan_force:g} N")
             return None
 
         # Twice the time a pass should take, and a margin for the controller to get going.
@@ -238,16 +270,26 @@ class FindMaxLoad(ProgramSkill):
         passes = [(start, end), (end, start)] if self.p.both_ways else [(start, end)]
         found: list = []
         smoothed: list[np.ndarray] = []  # each pass's smoothed load, in the order it was sampled
+        stretches: list[slice] = []
         for a, b in passes:
             first = len(positions)
             if a != start:
                 self.feedback_message = "scanning back"
             stopped = yield from self.move(np.r_[b, pose[1:]], self.p.speed, timeout, watch=sample)
-            peak, problem, firmer_helps = self.judge(element, positions[first:], loads[first:], stopped, slipped[0])
+            peak, problem, firmer_helps = self.judge(element, positions[first:], loads[first:], stopped, slipped[0],
+                                                     arm_loads[first:])
             if problem:
                 return peak, problem, firmer_helps
             found.append(peak)
             smoothed.append(in_sampled_order(positions[first:], peak.smoothed))
+            stretches.append(slice(first, len(positions)))
+        shortfall = max(self.shortfall(positions[s], peak, arm_loads[s]) for s, peak in zip(stretches, found))
+        measured_by = "fingers"
+        if shortfall > self.p.max_shortfall:  # the fingers' top is flat: the arm's push locates the peaks
+            measured_by = "arm"
+            found = [dataclasses.replace(peak, position=locate_peak(positions[s], arm_loads[s], self.p.smoothing,
+                                                                    self.p.fit_half_width).position)
+                     for s, peak in zip(stretches, found)]
         if len(found) == 2:  # the skin's lag shifts each pass's peak along its way: the mean cancels it
             forward, back = found
             peak = dataclasses.replace(forward, position=0.5 * (forward.position + back.position),
@@ -259,17 +301,58 @@ class FindMaxLoad(ProgramSkill):
             "plate": element["plate"], "position": np.array(positions), "load": np.array(loads),
             "smoothed": np.concatenate(smoothed), "best_position": peak.position, "best_load": peak.load,
             "clarity": min(p.clarity for p in found), "top_share": max(p.top_share for p in found),
-            "grip_slipped": False, "passes": len(found), "lag_shift": lag_shift})
+            "grip_slipped": False, "passes": len(found), "lag_shift": lag_shift,
+            "arm_load": np.array(arm_loads), "shortfall": shortfall, "measured_by": measured_by})
         return peak, None, False
 
+    def shortfall(self, positions: list[float], peak, arm_loads: list[float]) -> float:
+        """Share by which one pass's finger load falls short at its top of what the fingers' response
+        measured on the pass's flanks gives for the arm's peak push: a straight line (finger load
+        against the arm's push) fitted where the arm feels 20-60 % of its peak (an offset as well as a
+        gain: a lagging, creeping skin reads late and stays above zero after unloading, on each flank
+        the other way) and taken to the arm's peak. About 0 (or below) for fingers that read the load
+        in proportion, large for a saturated reading; 0 when the arm felt less than `min_push` (no
+        force sensor, or too light a plate to tell)."""
+        arm = self.smoothed_push(positions, arm_loads)
+        if arm is None:
+            return 0.0
+        top = float(arm.max())
+        flanks = (arm > 0.2 * top) & (arm < 0.6 * top)
+        if flanks.sum() < 5 or np.ptp(arm[flanks]) < 0.2 * top:
+            return 0.0
+        gain, offset = np.polyfit(arm[flanks], peak.smoothed[flanks], 1)
+        if gain <= 0.0:
+            return 0.0
+        return max(0.0, 1.0 - (float(peak.smoothed.max()) - offset) / (gain * top))
+
+    def smoothed_push(self, positions: list[float], arm_loads: list[float]) -> np.ndarray | None:
+        """The arm's push along one pass in ascending position order, smoothed as the fingers' load is
+        (`smoothing`); None when it peaks below `min_push` (no force sensor, or too light a plate)."""
+        order = np.argsort(np.asarray(positions, dtype=float))
+        span = float(positions[order[-1]] - positions[order[0]])
+        arm = moving_average(np.asarray(arm_loads, dtype=float)[order],
+                             max(1, round(self.p.smoothing * (len(order) - 1) / max(span, 1e-9))))
+        return arm if float(arm.max()) >= self.p.min_push else None
+
+    def at_rest(self, ticks: int):
+        """(summed finger force, TCP force) averaged over the next `ticks` ticks, the element hanging
+        clear of everything: the zeros the scan's load and push are measured from (a real TCP force
+        sensor reads an offset and drifts, so the push is taken from a zero measured on the spot)."""
+        fingers, arm = np.zeros(3), np.zeros(3)
+        for _ in range(ticks):
+            yield
+            fingers += summed_force(*self.tactile())
+            arm += np.asarray(self.read(keys.ROBOT_WRENCH, np.zeros(6))[:3], dtype=float)
+        return fingers / ticks, arm / ticks
+
     def judge(self, element: dict, positions: list[float], loads: list[float], stopped: str | None,
-              slipping: bool):
+              slipping: bool, arm_loads: list[float]):
         """One pass's (peak, problem, whether a firmer grip could help), problem None for a trusted
         peak; a pass with a problem writes its load profile (a trusted one is written with the scan's)."""
         if stopped and not slipping or len(positions) < 5:
             return None, stopped or "the scan ended at once", slipping
         peak = locate_peak(positions, loads, self.p.smoothing, self.p.fit_half_width)
-        verdict = self.verdict(peak, stopped, slipping)
+        verdict = self.verdict(peak, stopped, slipping, self.smoothed_push(positions, arm_loads))
         if verdict[1] is not None:
             self.write(keys.LOAD_PROFILE, {
                 "plate": element["plate"], "position": np.array(positions), "load": np.array(loads),
@@ -278,15 +361,21 @@ class FindMaxLoad(ProgramSkill):
                 "grip_slipped": verdict[3]})
         return verdict[:3]
 
-    def verdict(self, peak, stopped: str | None, slipping: bool):
+    def verdict(self, peak, stopped: str | None, slipping: bool, push: np.ndarray | None = None):
         """(peak, problem, whether a firmer grip could help, whether the grip slipped) of a located
-        peak; a problem names the rule that refused the peak and what to change."""
+        peak (and the arm's smoothed `push` profile, None without a force sensor); a problem names the
+        rule that refused the peak and what to change."""
         min_top = self.least_top_width(peak.sample_position / self._span)
         sharp = not slipping and peak.clarity >= self.p.min_clarity and peak.top_share < min_top
         # A plate only pushes, and a lagging skin only shows a load late (creep and hysteresis leave it
         # above the truth after unloading, never below): a profile that falls below its unloaded
         # reference by more than `max_below` of its peak measured a grip that shifted under the load.
         drifted = not slipping and float(peak.smoothed.min()) < -self.p.max_below * abs(peak.load)
+        # The same holds for the arm's push, which has no lag: pulled up below its zero at rest, the
+        # element stands on the ground, slid down in the grip (pixel mode may barely show it in the fingers).
+        grounded = (not slipping and not drifted and push is not None
+                    and float(push.min()) < -self.p.max_below * float(push.max()))
+        drifted = drifted or grounded
         slipped = slipping or sharp or drifted
         if slipping:
             return peak, Refusal(f"{stopped} (rule 'slip')", FIRMER), True, slipped
@@ -301,6 +390,11 @@ class FindMaxLoad(ProgramSkill):
                                  f"load peaked there more sharply than a plate can (rule 'min_top_width': top "
                                  f"{peak.top_share:.0%} of the scan wide < {min_top:.1%} there)",
                                  f"{FIRMER}, or, if this plate's maximum is that sharp, lower 'min_top_width'"), True, slipped
+        if grounded and push is not None:
+            return peak, Refusal(f"the element shifted in the grip during the scan: the arm's push fell to "
+                                 f"{push.min():.1f} N, below its zero at rest by more than {self.p.max_below:g} of "
+                                 f"its peak {push.max():.1f} N, the element's foot on the ground (rule 'max_below': "
+                                 "a plate only pushes)", FIRMER), True, slipped
         if drifted:
             return peak, Refusal(f"the element shifted in the grip during the scan: the load fell to "
                                  f"{peak.smoothed.min():.2f} px, below its unloaded reference by more than "
@@ -327,11 +421,18 @@ class FindMaxLoad(ProgramSkill):
         return Refusal(unclear, f"{FIRMER}, or lower 'min_clarity'"), True
 
     def regrasp(self, outside: np.ndarray, attempt: int):
-        """Slide back out from under the plate, set the foot on the ground so it carries the
-        element, and close the fingers further with a higher force limit; None, or why not."""
+        """Slide back out from under the plate and along it to where the first scan came in from
+        (`outside`), set the foot on the ground so it carries the element, and close the fingers
+        further with a higher force limit; None, or why not. Going back outside the plate keeps the
+        rescan's slide-in where the plate carries little, as the first one was: straight from where
+        a pass stopped, it would cut under the plate's loaded middle sideways."""
         self.feedback_message = f"re-grasp {attempt}: sliding out from under the plate"
         out = self.pose()
         out[1] = outside[1]
+        fault = yield from self.move(out, 0.05)
+        if fault:
+            return fault
+        out[0] = outside[0]
         fault = yield from self.move(out, 0.05)
         if fault:
             return fault

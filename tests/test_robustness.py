@@ -59,6 +59,28 @@ def test_a_pixel_mode_demo_succeeds_honestly_on_randomised_seeds(cell, tmp_path)
     check(runs(tree, "pixels", cell, tmp_path, SEEDS[:2]), 2)
 
 
+def test_the_heaviest_randomised_plate_is_propped_at_its_maximum(cell, tmp_path):
+    """assembly_heavy's P3 on seed 12 really pushes its prop with 95.5 N (~2 N of load noise), the
+    heaviest of 20 seeds: one reading of 100.5 N stopped the rescan at `max_scan_force` 100 N. The scan's
+    push is now measured from the force at rest and as a median over a few ticks. E3 alone (~25 s)."""
+    from assembly.run.options import RunOptions
+    from assembly.run.session import run_tree
+
+    text = (TREES / "assembly_heavy.yaml").read_text()
+    assert "for_each_element: elements" in text
+    (tmp_path / "heavy.yaml").write_text(
+        text.replace("design/", f"{TREES}/design/").replace("subtrees/", f"{TREES}/subtrees/")
+        .replace("for_each_element: elements", "for_each_element: elements\n          elements: [E3]"))
+    with pytest.MonkeyPatch.context() as patch:  # the copy includes the project's subtree and design
+        patch.setenv("FVTREE_INCLUDE_PATH", str(TREES))
+        result = run_tree(str(tmp_path / "heavy.yaml"), RunOptions(
+            cell=str(cell), seed=12, perception="signals", runs_dir=tmp_path / "runs", plots=False, record=False,
+            quiet=True))
+    assert result.status == "SUCCESS", result.message
+    e3 = result.elements["E3"]
+    assert e3["true_max_load_N"] > 90.0 and abs(e3["position"] - e3["true_best_position"]) < 0.01, e3
+
+
 def summary(status: str, **metrics) -> dict:
     return {"status": status, "metrics": metrics, "truth": {"tolerances": {"max_final_error_mm": 20.0}}}
 
