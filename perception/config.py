@@ -68,6 +68,9 @@ class TrackerConfig:
     consistency: float = 0.0  # px; flag markers off their neighbours' local deformation (0 = off)
     neighbours: int = 6  # neighbours used by the consistency check and to re-find lost markers
     lost: Literal["origin", "neighbours"] = "neighbours"  # where a lost marker is searched (original: origin)
+    # window tracker: markers still lost after the neighbours' look are searched for the nearest marker-like
+    # blob within this share of the calibrated marker spacing (a jump of several px in one frame); 0 = off
+    reacquire: float = 0.0
 
 
 @dataclass(frozen=True)
