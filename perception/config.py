@@ -159,7 +159,7 @@ class SlipConfig:
 class HealthConfig:
     """When a state is flagged unhealthy."""
 
-    min_tracked: float = 0.5  # share of calibrated markers tracked this frame
+    min_tracked: float = 0.5  # share of calibrated markers in view (`fingervision.in_view`) tracked this frame
     dark_level: float = 15.0  # mean grey level below which the image is too dark
     saturated_share: float = 0.5  # share of pixels at >= 250 above which it is washed out
     frozen_frames: int = 5  # identical consecutive frames before the camera counts as frozen
