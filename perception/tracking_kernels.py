@@ -69,12 +69,12 @@ def measure_windows(grey, centre, rows, disc, ring_in, half):  # pragma: no cove
         core = 0.0
         dark_ring = 0
         ring_size = 0
-        inner, outer = ring_in[k], ring_in[k] + 2.0
+        inner, outer = ring_in[k] * ring_in[k], (ring_in[k] + 2.0) * (ring_in[k] + 2.0)
         for r in range(size):
             for c in range(size):
                 v = p[r, c]
-                d = math.sqrt(float((r - half) * (r - half) + (c - half) * (c - half)))
-                if inner < d <= outer:
+                d2 = float((r - half) * (r - half) + (c - half) * (c - half))
+                if inner < d2 <= outer:
                     ring_size += 1
                     if v < level:
                         dark_ring += 1
