@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 from conftest import match
 
-import perception.marker_tracking as marker_tracking
 from drivers.sim.models.fingervision_model import FingerContact, SensorModel
 from drivers.sim.models.synthetic_camera import Appearance, SyntheticFingerVision
+from perception import marker_tracking
 from perception.config import load_config
 from perception.fingervision import FingerVision
 from perception.marker_tracking import WindowTracker
