@@ -36,7 +36,6 @@ from perception.tracking_kernels import measure_windows, near_trusted, predict_l
 _INFEASIBLE = 1e9
 RECENTRE = 3  # window tracker: re-measures of a marker found off its window centre
 FOLLOW_ROUNDS = 3  # window tracker: rounds of looking for markers where their neighbours moved
-SEARCH_EVERY = 4  # window tracker: frames between re-acquisition searches for a marker lost for long
 SLACK = 0.15  # share of a marker's predicted displacement added to the consistency tolerance
 GROWTH = 1.4  # window tracker: largest diameter over the calibrated one the dark-ring check follows
 
@@ -399,22 +398,9 @@ class WindowTracker(MarkerTracker):
         slip: every marker in view, none where it was) is followed again at once; the consistency
         check after it still flags a marker caught on the wrong blob, and a marker out of view
         finds nothing."""
-        # Markers lost this frame or a few frames ago every frame, those lost longer (out of view, or
-        # under something dark) every SEARCH_EVERY frames: each search costs ~20 windows.
-        fails = self.failures
-        lost = np.flatnonzero(~ok & ((fails <= self.cfg.n_reset) | (fails % SEARCH_EVERY == 0)))
-        if not len(lost):
-            return xy, size, ok
+        lost = np.flatnonzero(~ok)
         predicted, count = self._fit.predict(xy - self.position, ok, lost)
         expected = self.position[lost] + np.where((count >= 2)[:, None], predicted, 0.0)
-        # A marker expected past the image's edge (pushed out by the load) cannot be found there.
-        h, w = grey.shape
-        r = 0.5 * self.origin_size[lost]
-        inside = ((expected[:, 0] >= r) & (expected[:, 1] >= r) & (expected[:, 0] <= w - 1 - r)
-                  & (expected[:, 1] <= h - 1 - r))
-        lost, expected = lost[inside], expected[inside]
-        if not len(lost):
-            return xy, size, ok
         k = len(self._probes)
         rows = np.repeat(lost, k)
         last_size = np.repeat(self.size[lost], k)
@@ -488,16 +474,15 @@ class WindowTracker(MarkerTracker):
 
 
 def reacquire_probes(origin: np.ndarray, origin_size: np.ndarray, reach: float) -> np.ndarray:
-    """(K, 2) offsets of the window centres searched around a lost marker: a square grid 0.7 marker
-    diameters apart (a window finds a marker whose centre is within its disc, 1 px wider than the
-    marker: every point is within 0.5 diameters of a probe), inside `reach` of the median calibrated
-    marker spacing; none when `reach` is 0 or there are fewer than two markers."""
+    """(K, 2) offsets of the window centres searched around a lost marker: a square grid, one marker
+    radius apart (a window finds a marker whose centre is within its disc), inside `reach` of the median
+    calibrated marker spacing; none when `reach` is 0 or there are fewer than two markers."""
     if reach <= 0.0 or len(origin) < 2:
         return np.zeros((0, 2))
     d = np.linalg.norm(origin[:, None, :] - origin[None, :, :], axis=2)
     np.fill_diagonal(d, np.inf)
     radius = reach * float(np.median(d.min(axis=1)))
-    step = max(2.0, 0.7 * float(np.median(origin_size)))
+    step = max(2.0, 0.5 * float(np.median(origin_size)))
     ticks = np.arange(-np.floor(radius / step), np.floor(radius / step) + 1) * step
     grid = np.stack(np.meshgrid(ticks, ticks), axis=-1).reshape(-1, 2)
     grid = grid[np.linalg.norm(grid, axis=1) <= radius]
