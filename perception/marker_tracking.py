@@ -394,10 +394,9 @@ class WindowTracker(MarkerTracker):
         `max_size_change` and lies half a spacing clear of every trusted marker (not a neighbour's
         blob); each lost marker takes the nearest, and two that take one blob are both left lost (as
         `_clash`); one is kept only where two or more of its neighbours (trusted, or found again with
-        it) moved alike (within the consistency tolerance of their local deformation). So a skin that jumped further in one frame than the window reaches (a knock, a
-        slip: every marker in view, none where it was) is followed again at once; the consistency
-        check after it still flags a marker caught on the wrong blob, and a marker out of view
-        finds nothing."""
+        it) moved alike (within the consistency tolerance of their local deformation). So a skin
+        that jumped further in one frame than the window reaches (a knock, a slip: every marker in
+        view, none where it was) is followed again at once; a marker out of view finds nothing."""
         lost = np.flatnonzero(~ok)
         predicted, count = self._fit.predict(xy - self.position, ok, lost)
         expected = self.position[lost] + np.where((count >= 2)[:, None], predicted, 0.0)
