@@ -48,7 +48,8 @@ class GentleGrasp(ProgramSkill):
         "min_width": Param("float", "width at which closing gives up (nothing grasped)", 0.002, "m", min=0.0, device="gripper_width"),
         "max_time": time_limit(20.0, "give up when no contact is felt within this time"),
         "settle_time": Param("float", "longest wait, fingers stopped at the felt touch, for the skin to show "
-                             "all of it (a slow skin's overshoot is measured meanwhile; 0: no wait)", 3.0, "s",
+                             "all of it (a slow skin's overshoot is measured meanwhile; 0: no wait, the default until the demos' "
+                             "tests are settled with it, see docs/robustness.md)", 0.0, "s",
                              min=0.0, max=30.0),
     }
     READS = (keys.FV_LEFT, keys.FV_RIGHT, keys.GRIPPER_WIDTH, keys.GRIPPER_FAULT, keys.GRIPPER_MOVING)

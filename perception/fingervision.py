@@ -132,8 +132,8 @@ class FingerVision:
         tracked = float((track.valid & seen).sum() / max(seen.sum(), 1))
         healthy = tracked >= self.config.health.min_tracked
         out = "" if seen.all() else f", {(~seen).sum()} of {len(seen)} pushed out of the image"
-        reason = "" if healthy else (f"only {tracked:.0%} of markers in view tracked "
-                                     f"(< {self.config.health.min_tracked:.0%}{out}); contact occluding "
+        reason = "" if healthy else (f"only {tracked:.0%} of markers tracked (of those in view; "
+                                     f"< {self.config.health.min_tracked:.0%}{out}); contact occluding "
                                      f"the skin, lighting changed, or recalibration needed")
         reason = "; ".join(r for r in (reason, warning, self._object_warning()) if r)  # on a healthy state: a warning
         return TactileState(self.finger, stamp, markers, force, torque, obj, slip, healthy, reason)

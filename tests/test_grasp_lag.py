@@ -73,10 +73,10 @@ def test_a_slow_skin_is_gripped_about_as_firmly_as_the_tuned_one(tmp_path):
     cell = str(randomised_cell(tmp_path / "cell"))
     seeds = [1, 2]  # skins of 0.75 s and 0.92 s
     before = grip_forces(tmp_path, cell, seeds, 0.0)  # no wait: the squeeze from where the touch was felt
-    after = grip_forces(tmp_path, cell, seeds, None)
+    after = grip_forces(tmp_path, cell, seeds, 3.0)
     assert min(before) > 15.0  # 22.5 and 17.5 N measured
     assert max(after) < 13.0 and min(after) > 5.0  # 11.5 and 9.1 N measured
 
 
 def test_the_plain_cells_grip_is_unchanged(tmp_path):
-    assert grip_forces(tmp_path, "sim", [0], None) == grip_forces(tmp_path, "sim", [0], 0.0)
+    assert grip_forces(tmp_path, "sim", [0], 3.0) == grip_forces(tmp_path, "sim", [0], 0.0)
