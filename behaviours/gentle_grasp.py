@@ -3,8 +3,8 @@ markers (the object is touched), then squeeze a set margin so the grip carries t
 A marker counts as changed beyond `threshold`, or beyond `noise_factor` times the rest noise the
 first frames show when the skin (or that marker) is noisier than that (`ForceChangeDetector`).
 
-A slow skin shows the touch late, so the fingers have closed past it when contact is felt. They
-stop there while the skin settles (`skill_kit.settle`, up to `settle_time`); the settled reading
+A slow skin shows the touch late, so the fingers have closed past it when contact is felt. With
+`settle_time` > 0 (off by default) they stop there while the skin settles (`skill_kit.settle`, up to `settle_time`); the settled reading
 against the one at the stop and the decay's time constant, both measured on the spot, say how far
 they closed past where the skin the squeeze was tuned on (the sensor profile's lag) would have
 stopped them (`skill_kit.grasp_lag`), and the squeeze is taken from there. On a skin no slower than
