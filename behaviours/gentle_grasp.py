@@ -4,9 +4,9 @@ A marker counts as changed beyond `threshold`, or beyond `noise_factor` times th
 first frames show when the skin (or that marker) is noisier than that (`ForceChangeDetector`).
 
 A slow skin shows the touch late, so the fingers have closed past it when contact is felt. With
-`settle_time` > 0 (off by default) they stop there while the skin settles (`skill_kit.settle`, up to `settle_time`); the settled reading
-against the one at the stop and the decay's time constant, both measured on the spot, say how far
-they closed past where the skin the squeeze was tuned on (the sensor profile's lag) would have
+`settle_time` > 0 (off by default) they stop there while the skin settles (`skill_kit.settle`, up
+to `settle_time`); the settled reading against the one at the stop and the decay's time constant,
+both measured on the spot, say how far they closed past where the skin the squeeze was tuned on (the sensor profile's lag) would have
 stopped them (`skill_kit.grasp_lag`), and the squeeze is taken from there. On a skin no slower than
 that it is nothing, and the grasp only waits for the settling window (0.4 s)."""
 
