@@ -68,6 +68,9 @@ class TrackerConfig:
     consistency: float = 0.0  # px; flag markers off their neighbours' local deformation (0 = off)
     neighbours: int = 6  # neighbours used by the consistency check and to re-find lost markers
     lost: Literal["origin", "neighbours"] = "neighbours"  # where a lost marker is searched (original: origin)
+    # window tracker: markers still lost after the neighbours' look are searched for the nearest marker-like
+    # blob within this share of the calibrated marker spacing (a jump of several px in one frame); 0 = off
+    reacquire: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -156,7 +159,7 @@ class SlipConfig:
 class HealthConfig:
     """When a state is flagged unhealthy."""
 
-    min_tracked: float = 0.5  # share of calibrated markers tracked this frame
+    min_tracked: float = 0.5  # share of calibrated markers in view (`fingervision.in_view`) tracked this frame
     dark_level: float = 15.0  # mean grey level below which the image is too dark
     saturated_share: float = 0.5  # share of pixels at >= 250 above which it is washed out
     frozen_frames: int = 5  # identical consecutive frames before the camera counts as frozen

@@ -34,6 +34,16 @@ from perception.wrench import wrench
 MAX_BACKGROUND_MATCH = 0.01
 
 
+def in_view(position: np.ndarray, size: np.ndarray, image_size: tuple[int, int]) -> np.ndarray:
+    """(N,) markers whose disc (`size` px across) lies wholly inside the image at `position` (where
+    the tracker has or predicts each marker): a firm load pushes the outer markers past the image's
+    edge, where no tracker, and no real sensor, sees them; the health rule counts only the others."""
+    w, h = image_size
+    r = 0.5 * np.asarray(size, float)
+    x, y = position[:, 0], position[:, 1]
+    return (x >= r) & (y >= r) & (x <= w - 1 - r) & (y <= h - 1 - r)
+
+
 class NotCalibratedError(FvtreeError, RuntimeError):
     """`process` was called before `calibrate` or `use_marker_map`."""
 
@@ -118,10 +128,12 @@ class FingerVision:
         force, torque = wrench(markers, self.finger, w.normal_mode, w.averaging,
                                np.asarray(w.force_scale), np.asarray(w.torque_scale))
         obj, slip = self._proximity(bgr)
-        tracked = float(track.valid.mean())
+        seen = in_view(track.position, m.size, m.image_size)
+        tracked = float((track.valid & seen).sum() / max(seen.sum(), 1))
         healthy = tracked >= self.config.health.min_tracked
-        reason = "" if healthy else (f"only {tracked:.0%} of markers tracked "
-                                     f"(< {self.config.health.min_tracked:.0%}); contact occluding "
+        out = "" if seen.all() else f", {(~seen).sum()} of {len(seen)} pushed out of the image"
+        reason = "" if healthy else (f"only {tracked:.0%} of markers tracked (of those in view; "
+                                     f"< {self.config.health.min_tracked:.0%}{out}); contact occluding "
                                      f"the skin, lighting changed, or recalibration needed")
         reason = "; ".join(r for r in (reason, warning, self._object_warning()) if r)  # on a healthy state: a warning
         return TactileState(self.finger, stamp, markers, force, torque, obj, slip, healthy, reason)

@@ -12,7 +12,9 @@ the size change, count failures and reset a marker to its origin after more than
           ring around them darker than at calibration), are flagged. Markers that moved further in
           one frame than the window reaches or the jump gate allows (a load taken up at once: a
           dense shear, largest inside the contact) are looked for again where their neighbours
-          moved this frame, and gated against that place.
+          moved this frame, and gated against that place. Markers still lost (a jump larger than the
+          window reaches, with their neighbours lost too) are re-acquired on the nearest marker-like
+          blob within `reacquire` of the marker spacing that no trusted marker holds (`reacquire`).
 An optional consistency check flags markers whose displacement leaves the local affine deformation
 of their neighbours (a swap or a marker caught on a dark background feature), so that a firm shear
 or twist, whose neighbours differ by a smooth gradient, passes. With `lost: neighbours` a lost
@@ -34,6 +36,8 @@ from perception.tracking_kernels import measure_windows, near_trusted, predict_l
 _INFEASIBLE = 1e9
 RECENTRE = 3  # window tracker: re-measures of a marker found off its window centre
 FOLLOW_ROUNDS = 3  # window tracker: rounds of looking for markers where their neighbours moved
+SLACK = 0.15  # share of a marker's predicted displacement added to the consistency tolerance
+GROWTH = 1.4  # window tracker: largest diameter over the calibrated one the dark-ring check follows
 
 
 @dataclass(frozen=True)
@@ -94,15 +98,24 @@ class LocalFit:
                              np.ascontiguousarray(trusted, bool), self._prior)
 
 
+def allowed_deviation(tolerance: float, predicted: np.ndarray) -> np.ndarray:
+    """(R,) px a marker may lie off its neighbours' local affine fit: `tolerance`, plus `SLACK` of the
+    displacement the fit predicts, since a firm press bends the gel more sharply than one affine map
+    follows over a neighbourhood (a load peaked under the contact: 10-20 px next to 5-10 px), while a
+    swap is a marker spacing off."""
+    return tolerance + SLACK * np.sqrt((predicted * predicted).sum(axis=1))
+
+
 def inconsistent(fit: LocalFit, displacement: np.ndarray, ok: np.ndarray, tolerance: float) -> np.ndarray:
-    """(N,) markers whose displacement is more than `tolerance` px from what their valid neighbours'
-    local deformation predicts (`LocalFit`). Markers flagged are left out of their neighbours' fits in
-    a second pass, so one wrong marker cannot flag good ones."""
+    """(N,) markers whose displacement is further from what their valid neighbours' local deformation
+    predicts (`LocalFit`) than `allowed_deviation`. Markers flagged are left out of their neighbours'
+    fits in a second pass, so one wrong marker cannot flag good ones."""
     flagged = np.zeros(len(ok), bool)
     for _ in range(2):
         predicted, count = fit.predict(displacement, ok & ~flagged)
         dev = displacement - predicted
-        again = ok & (count >= 2) & ((dev * dev).sum(axis=1) > tolerance * tolerance)  # two neighbours at least
+        limit = allowed_deviation(tolerance, predicted)
+        again = ok & (count >= 2) & ((dev * dev).sum(axis=1) > limit * limit)  # two neighbours at least
         if not again.any() or np.array_equal(again, flagged):
             return again
         flagged = again
@@ -297,19 +310,27 @@ class WindowTracker(MarkerTracker):
         self._half = int(cfg.window) if cfg.window > 0 else max(3, int(np.ceil(radius.max() + 3)))
         self._min_sep = 0.5 * min_spacing(self.origin)
         self._rows = np.arange(len(self.origin))
+        self._probes = reacquire_probes(self.origin, self.origin_size, cfg.reacquire)
+        self._reach = float(np.linalg.norm(self._probes, axis=1).max()) + 1.0 if len(self._probes) else 0.0
         off = np.arange(-self._half, self._half + 1, dtype=np.float32)
         # Centroid and size use only a disc 1 px larger than each marker, so that darker background
         # in the window corners or next to the marker does not pull the centroid or count as area.
         dist = np.hypot(off[:, None], off[None, :])[None]
         self._disc = dist <= (radius + 1.0)[:, None, None]
-        # The ring checked for dark contamination, 2 px wide around the window centre (within 1 px of
-        # the marker's), starts past the marker's rim, its major semi-axis included (markers near the
-        # window rim are foreshortened to ellipses) and 1 px of centring slack.
-        ring_in = np.minimum(0.65 * self.origin_size + 1.0, self._half - 2.0)[:, None, None]
-        self._ring = (dist > ring_in) & (dist <= ring_in + 2.0)
-        self._ring_size = self._ring.sum(axis=(1, 2))
 
-    def _window(self, grey: np.ndarray, centre: np.ndarray, which: slice | np.ndarray):
+    def _ring_in(self, rows: np.ndarray, size: np.ndarray) -> np.ndarray:
+        """Inner radius (px) of the ring checked for dark contamination around each of the markers
+        `rows`, now `size` px across: 2 px wide around the window centre (within 1 px of the
+        marker's), it starts past the marker's rim, its major semi-axis included (markers near the
+        window rim are foreshortened to ellipses) and 1 px of centring slack. A marker grown under a
+        press (up to `GROWTH` times its calibrated diameter) moves the ring out with its rim, so
+        that its own edge does not count as something dark touching it."""
+        base = self.origin_size[rows]
+        grown = np.clip(size, base, GROWTH * base)
+        return np.minimum(0.65 * grown + 1.0, self._half - 2.0)
+
+    def _window(self, grey: np.ndarray, centre: np.ndarray, which: slice | np.ndarray,
+                size: np.ndarray | None = None):
         """Centroid, diameter, contrast, dark-pixel count and the dark share of the ring just outside
         the marker in the window around each centre, for the markers `which` (compiled:
         `tracking_kernels.measure_windows`). In each window the background is the median of its
@@ -322,7 +343,8 @@ class WindowTracker(MarkerTracker):
         if h < size or w < size:
             raise ValueError(f"image {w}x{h} is smaller than one tracking window ({size} px)")
         rows = self._rows if isinstance(which, slice) else np.asarray(which, np.int64)
-        return measure_windows(grey, np.asarray(centre, float), rows, self._disc, self._ring, self._ring_size, half)
+        ring_in = self._ring_in(rows, self.origin_size[rows] if size is None else np.asarray(size, float))
+        return measure_windows(grey, np.asarray(centre, float), rows, self._disc, ring_in, half)
 
     def _measure(self, bgr, grey, pred_xy, pred_size):
         xy, size, ok, self.ring = self._look(grey, pred_xy, slice(None), pred_size, 1)
@@ -334,13 +356,13 @@ class WindowTracker(MarkerTracker):
         in windows around `centre`; a marker found off its window centre (it may be cut by the window
         edge) is measured again where it was found, up to `recentre` times, so that the window follows
         it."""
-        xy, size, contrast, count, ring_dark = self._window(grey, centre, which)
+        xy, size, contrast, count, ring_dark = self._window(grey, centre, which, pred_size)
         moved = np.flatnonzero(np.abs(xy - np.rint(centre)).max(axis=1) > 1.0)
         for _ in range(recentre):
             if not len(moved):
                 break
             start = xy[moved]
-            again = self._window(grey, start, moved if isinstance(which, slice) else which[moved])
+            again = self._window(grey, start, moved if isinstance(which, slice) else which[moved], pred_size[moved])
             for full, part in zip((xy, size, contrast, count, ring_dark), again):
                 full[moved] = part
             moved = moved[np.abs(xy[moved] - np.rint(start)).max(axis=1) > 1.0]
@@ -359,6 +381,65 @@ class WindowTracker(MarkerTracker):
         return near_trusted(np.asarray(xy, float), ok, self._min_sep)
 
     def _follow(self, grey, xy, size, seen, ok):
+        xy, size, ok = self._follow_neighbours(grey, xy, size, seen, ok)
+        if len(self._probes) and not ok.all():
+            xy, size, ok = self._reacquire(grey, xy, size, ok)
+        return xy, size, ok
+
+    def _reacquire(self, grey: np.ndarray, xy: np.ndarray, size: np.ndarray, ok: np.ndarray):
+        """Markers still lost are looked for on a grid of window centres (`_probes`) around where
+        they are expected (their trusted neighbours' motion this frame where two or more are
+        trusted, else their last place); each probe's window follows the blob it finds (`RECENTRE`).
+        A blob counts when it passes the window checks, keeps the marker's size within
+        `max_size_change` and lies half a spacing clear of every trusted marker (not a neighbour's
+        blob); each lost marker takes the nearest, and two that take one blob are both left lost (as
+        `_clash`); one is kept only where two or more of its neighbours (trusted, or found again with
+        it) moved alike (within the consistency tolerance of their local deformation). So a skin
+        that jumped further in one frame than the window reaches (a knock, a slip: every marker in
+        view, none where it was) is followed again at once; a marker out of view finds nothing."""
+        lost = np.flatnonzero(~ok)
+        predicted, count = self._fit.predict(xy - self.position, ok, lost)
+        expected = self.position[lost] + np.where((count >= 2)[:, None], predicted, 0.0)
+        k = len(self._probes)
+        rows = np.repeat(lost, k)
+        last_size = np.repeat(self.size[lost], k)
+        centre = (expected[:, None, :] + self._probes[None]).reshape(-1, 2)
+        fxy, fsize, fok, _ = self._look(grey, centre, rows, last_size, RECENTRE)
+        fok &= np.abs(fsize - last_size) < self.cfg.max_size_change
+        dist = np.linalg.norm(fxy - np.repeat(expected, k, axis=0), axis=1)
+        fok &= dist <= self._reach
+        if not fok.any():
+            return xy, size, ok
+        fok[fok] &= ~near_trusted(np.concatenate([xy[ok], fxy[fok]]),
+                                  np.r_[np.ones(int(ok.sum()), bool), np.zeros(int(fok.sum()), bool)],
+                                  self._min_sep)[int(ok.sum()):]
+        dist = np.where(fok, dist, np.inf).reshape(len(lost), k)
+        best = dist.argmin(axis=1)
+        has = np.isfinite(dist[np.arange(len(lost)), best])
+        if not has.any():
+            return xy, size, ok
+        pick = np.flatnonzero(has) * k + best[has]
+        new = lost[has]
+        clash = near_trusted(fxy[pick], np.ones(len(pick), bool), self._min_sep)
+        pick, new = pick[~clash], new[~clash]
+        xy, size, found = xy.copy(), size.copy(), ok.copy()
+        xy[new], size[new], found[new] = fxy[pick], fsize[pick], True
+        # A blob is that marker's only where the markers around it (trusted, or found again with it)
+        # moved alike: two of them at least, their local deformation putting it within the consistency
+        # tolerance (a dark spot of an object, or a marker cut by the image's rim, is not).
+        tolerance = self.cfg.consistency if self.cfg.consistency > 0 else self.cfg.max_jump
+        for _ in range(2):
+            predicted, count = self._fit.predict(xy - self.origin, found, new)
+            dev = xy[new] - self.origin[new] - predicted
+            limit = allowed_deviation(tolerance, predicted)
+            keep = (count >= 2) & ((dev * dev).sum(axis=1) <= limit * limit)
+            if keep.all():
+                break
+            found[new[~keep]] = False
+            new = new[keep]
+        return xy, size, found
+
+    def _follow_neighbours(self, grey, xy, size, seen, ok):
         """Markers that moved further in a frame than the window reaches or the jump gate allows
         (a sudden dense shear: the inner markers move most) are looked for again where the frame's
         motion of their neighbours (those measured, `seen`) puts them, the window following each
@@ -389,6 +470,22 @@ class WindowTracker(MarkerTracker):
                 break
             ok = found
         return xy, size, ok
+
+
+def reacquire_probes(origin: np.ndarray, origin_size: np.ndarray, reach: float) -> np.ndarray:
+    """(K, 2) offsets of the window centres searched around a lost marker: a square grid, one marker
+    radius apart (a window finds a marker whose centre is within its disc), inside `reach` of the median
+    calibrated marker spacing; none when `reach` is 0 or there are fewer than two markers."""
+    if reach <= 0.0 or len(origin) < 2:
+        return np.zeros((0, 2))
+    d = np.linalg.norm(origin[:, None, :] - origin[None, :, :], axis=2)
+    np.fill_diagonal(d, np.inf)
+    radius = reach * float(np.median(d.min(axis=1)))
+    step = max(2.0, 0.5 * float(np.median(origin_size)))
+    ticks = np.arange(-np.floor(radius / step), np.floor(radius / step) + 1) * step
+    grid = np.stack(np.meshgrid(ticks, ticks), axis=-1).reshape(-1, 2)
+    grid = grid[np.linalg.norm(grid, axis=1) <= radius]
+    return grid[np.argsort(np.linalg.norm(grid, axis=1), kind="stable")]
 
 
 def make_tracker(cfg: TrackerConfig, threshold: ThresholdConfig, detector: Detector,

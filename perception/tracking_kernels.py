@@ -15,10 +15,10 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def measure_windows(grey, centre, rows, disc, ring, ring_size, half):  # pragma: no cover - compiled
+def measure_windows(grey, centre, rows, disc, ring_in, half):  # pragma: no cover - compiled
     """For the markers `rows`, each in the (2 half + 1)^2 window of `grey` (uint8) around its `centre`
     (rounded, and moved inside the image): ((n, 2) centroid, diameter, contrast, dark-pixel count,
-    ring dark share); see `WindowTracker._window`."""
+    dark share of the 2 px wide ring from `ring_in[k]` px out); see `WindowTracker._window`."""
     n = len(rows)
     size = 2 * half + 1
     height, width = grey.shape
@@ -68,11 +68,16 @@ def measure_windows(grey, centre, rows, disc, ring, ring_size, half):  # pragma:
         inside = 0
         core = 0.0
         dark_ring = 0
+        ring_size = 0
+        inner, outer = ring_in[k] * ring_in[k], (ring_in[k] + 2.0) * (ring_in[k] + 2.0)
         for r in range(size):
             for c in range(size):
                 v = p[r, c]
-                if ring[i, r, c] and v < level:
-                    dark_ring += 1
+                d2 = float((r - half) * (r - half) + (c - half) * (c - half))
+                if inner < d2 <= outer:
+                    ring_size += 1
+                    if v < level:
+                        dark_ring += 1
                 if not disc[i, r, c] or v >= level:
                     continue
                 below = level - v
@@ -97,7 +102,7 @@ def measure_windows(grey, centre, rows, disc, ring, ring_size, half):  # pragma:
         diameter[k] = 2.0 * math.sqrt(area / math.pi)
         contrast[k] = bg - dark
         count[k] = inside
-        ring_dark[k] = dark_ring / ring_size[i]
+        ring_dark[k] = dark_ring / max(ring_size, 1)
     return xy, diameter, contrast, count, ring_dark
 
 
@@ -256,7 +261,7 @@ def warm_up() -> None:
     one, pair, hood = np.zeros(1), np.zeros((1, 2)), np.zeros((1, 1), np.int64)
     yes, rows = np.ones(1, np.bool_), np.zeros(1, np.int64)
     window = np.ones((1, 3, 3), np.bool_)
-    measure_windows(np.zeros((3, 3), np.uint8), pair, rows, window, window, np.ones(1, np.int64), 1)
+    measure_windows(np.zeros((3, 3), np.uint8), pair, rows, window, one, 1)
     predict_local(np.zeros((1, 1)), np.zeros((1, 1, 3)), hood, rows, pair, yes, np.eye(3))
     near_trusted(pair, yes, 1.0)
     kalman_step(pair, pair.copy(), one, one.copy(), one.copy(), one.copy(), one.copy(), pair.copy(), one.copy(),

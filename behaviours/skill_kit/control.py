@@ -68,6 +68,19 @@ class ForceChangeDetector:
             self.changed += int(np.count_nonzero(np.linalg.norm(f[:n] - mean[:n], axis=1) > limits[:n]))
         return self.changed > self.min_markers
 
+    def deviation(self, *marker_forces: np.ndarray) -> np.ndarray:
+        """Per finger, the mean over its referenced markers of how far each moved from the reference
+        (px; 0 before the reference is in): a reading that grows with the load on the skin, for
+        watching it settle after the fingers stop."""
+        if self._mean is None:
+            return np.zeros(len(marker_forces))
+        out = np.zeros(len(marker_forces))
+        for k, (f, mean) in enumerate(zip(marker_forces, self._mean)):
+            n = min(len(f), len(mean))
+            if n:
+                out[k] = float(np.nanmean(np.linalg.norm(f[:n] - mean[:n], axis=1)))
+        return out
+
 
 def marker_noise(frames: np.ndarray) -> np.ndarray:
     """Each marker's own rest noise (per-axis standard deviation over `frames`, frames x markers x

@@ -27,13 +27,16 @@ def test_a_plate_load_taken_up_in_one_frame_is_followed():
     moved = np.linalg.norm(frames[0].truth.position - state.markers.position[np.argsort(idx)], axis=1)
     assert moved.max() > 7.5  # beyond the jump gate (5 px) from the last position
     # In the step's frame the markers found at the first look are measured off-centre (within 1 px,
-    # as before); from the next frame on the windows sit on them.
-    for frame, limit in zip(frames, (1.0, 0.5, 0.5)):
+    # as before). The few it leaves off their blobs are looked for again in the next frame
+    # (re-acquired, `reacquire`) and measured off-centre (within 1 px) there; from then on the windows
+    # sit on every marker (before re-acquisition, 2 of 37 stayed lost).
+    for frame, limit in zip(frames, (1.0, 1.0, 0.5)):
         state = fv.process(frame.image, 0.0)
         ok = state.markers.valid
         assert state.healthy and ok.mean() >= 0.9
         error = np.linalg.norm(state.markers.position[ok] - frame.truth.position[idx][ok], axis=1)
         assert error.max() < limit
+    assert ok.all()
 
 
 @pytest.mark.parametrize("seed", [3, 5])
