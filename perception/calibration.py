@@ -167,8 +167,10 @@ def _stable(images, greys, xy, diameter, config: FingerVisionConfig):
     cal = config.calibration
     # The size gate is opened: the tracker may measure size slightly differently from the
     # detector; stability is judged on the tracker's own measurements. A dark edge next to a marker
-    # is recorded (its ring's dark share), not held against it.
-    loose = dataclasses.replace(config.tracker, max_size_change=np.inf, consistency=0.0, max_ring_dark=1.0)
+    # is recorded (its ring's dark share), not held against it. No candidate is re-acquired on
+    # another blob: one the tracker loses at rest is not a marker (a background spot).
+    loose = dataclasses.replace(config.tracker, max_size_change=np.inf, consistency=0.0, max_ring_dark=1.0,
+                                reacquire=0.0)
     tracker = make_tracker(loose, config.threshold, make_detector(config.detector), xy, diameter)
     tracker.regrow = False  # the candidates' sizes are the detector's: no growth to measure against them
     tracks, rings = [], []
