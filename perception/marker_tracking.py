@@ -38,10 +38,6 @@ RECENTRE = 3  # window tracker: re-measures of a marker found off its window cen
 FOLLOW_ROUNDS = 3  # window tracker: rounds of looking for markers where their neighbours moved
 SLACK = 0.15  # share of a marker's predicted displacement added to the consistency tolerance
 GROWTH = 1.4  # window tracker: largest diameter over the calibrated one the dark-ring check follows
-# window tracker: share of the markers lost on one frame (tracked on the last) that makes it a jump of
-# the skin worth the re-acquiring search (some 60 window measurements a lost marker), two at least; one
-# marker flickering out under a grip is left to the neighbours' look and the restart
-JUMPED = 0.05
 
 
 @dataclass(frozen=True)
@@ -386,7 +382,7 @@ class WindowTracker(MarkerTracker):
 
     def _follow(self, grey, xy, size, seen, ok):
         xy, size, ok = self._follow_neighbours(grey, xy, size, seen, ok)
-        if len(self._probes) and (~ok & (self.failures == 0)).sum() >= max(2, JUMPED * len(ok)):
+        if len(self._probes) and not ok.all():
             xy, size, ok = self._reacquire(grey, xy, size, ok)
         return xy, size, ok
 
