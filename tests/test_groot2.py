@@ -490,8 +490,13 @@ def test_btview_watches_a_live_fvtree_run(tmp_path):
     client = Client(port)
     try:
         uid = uids_by_path(client)  # waits for the server (the run's start-up)
-        snapshot = btview_cli("snapshot", "--port", str(port), "--ascii", "--uid", "--no-legend", "--timeout", "30")
-        assert snapshot.returncode == 0, snapshot.stderr
+        deadline = time.monotonic() + 120.0  # the server answers before the first tick (set-up, a loaded machine)
+        while True:
+            snapshot = btview_cli("snapshot", "--port", str(port), "--ascii", "--uid", "--no-legend", "--timeout", "30")
+            assert snapshot.returncode == 0, snapshot.stderr
+            if "RUNNING" in snapshot.stdout or time.monotonic() > deadline:
+                break
+            time.sleep(0.5)
         assert "descend_until_contact" in snapshot.stdout or "descend" in snapshot.stdout
         assert "elements" in snapshot.stdout and "RUNNING" in snapshot.stdout
         info = btview_cli("info", "--port", str(port), "--timeout", "30", "--samples", "3")
